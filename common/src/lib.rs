@@ -1,0 +1,8 @@
+//! Types shared by every spindle process: the scene format, the job and tile protocol, and
+//! image files. Nothing here renders or talks to the network; it is the vocabulary the
+//! renderer, the coordinator, the worker process and the `spindle` command have in common.
+#![forbid(unsafe_code)]
+
+pub mod scene;
+pub mod stats;
+pub mod tile;

@@ -1,0 +1,296 @@
+//! The scene file format: what a user (or an outside tool) writes to describe a render.
+//!
+//! These are the JSON types only. Every struct rejects unknown fields; values are checked by
+//! [`Scene::from_json`] (and [`Scene::validate`]), which names the JSON path of the first bad
+//! value (`objects[0].medium.sigma_t: must be >= 0`). The renderer turns a validated `Scene`
+//! into its own values; it never sees raw JSON. `scenes/README.md` documents every field.
+
+use serde::{Deserialize, Serialize};
+
+/// An RGB triple (linear, per-channel).
+pub type Rgb = [f64; 3];
+/// A point or direction in scene units.
+pub type Vec3 = [f64; 3];
+
+/// A whole scene.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    pub camera: Camera,
+    pub film: Film,
+    #[serde(default)]
+    pub lights: Vec<Light>,
+    #[serde(default)]
+    pub objects: Vec<Object>,
+    /// Constant radiance seen where a camera path leaves the scene.
+    #[serde(default)]
+    pub background: Rgb,
+    #[serde(default)]
+    pub integrator: Integrator,
+}
+
+/// Pinhole camera. Image x goes right, y goes down (row 0 at the top).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Camera {
+    pub position: Vec3,
+    pub look_at: Vec3,
+    #[serde(default = "default_up")]
+    pub up: Vec3,
+    /// Full vertical field of view, degrees.
+    pub fov_y: f64,
+}
+
+fn default_up() -> Vec3 {
+    [0.0, 1.0, 0.0]
+}
+
+/// Image size and sampling.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Film {
+    pub width: u32,
+    pub height: u32,
+    /// Camera samples per pixel.
+    #[serde(default = "default_spp")]
+    pub spp: u32,
+    /// Seed of the counter-based random numbers; the same seed gives the same bits.
+    #[serde(default)]
+    pub seed: u64,
+}
+
+fn default_spp() -> u32 {
+    4
+}
+
+/// A light source. Lights are outside every medium.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Light {
+    /// Isotropic point light; `intensity` in W/sr.
+    Point { position: Vec3, intensity: Rgb },
+    /// Spherical area light with uniform emitted radiance, sampled by area.
+    Sphere {
+        center: Vec3,
+        radius: f64,
+        radiance: Rgb,
+    },
+}
+
+/// One object: a shape, placed by a transform, made of a material.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Object {
+    pub shape: Shape,
+    #[serde(default)]
+    pub transform: Transform,
+    pub material: Material,
+}
+
+/// A triangle-mesh shape.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Shape {
+    /// A Wavefront OBJ file; `path` is relative to the scene file. In a farm job the path is
+    /// only a key into the job's asset table (see `protocol`): nobody opens it as given.
+    Obj { path: String },
+    /// Unit-radius icosahedron subdivided `subdivisions` times (20·4^s triangles), scaled to `radius`.
+    Icosphere { radius: f64, subdivisions: u32 },
+    /// Icosphere displaced radially by a smooth function:
+    /// `r = radius · (1 + amplitude · noise(frequency · p, seed))`, with noise in [-1, 1].
+    BumpySphere {
+        radius: f64,
+        subdivisions: u32,
+        amplitude: f64,
+        frequency: f64,
+        #[serde(default)]
+        seed: u64,
+    },
+}
+
+/// `scale`, then `rotate_deg` about x, y, z in that order, then `translate`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Transform {
+    #[serde(default = "default_scale")]
+    pub scale: Vec3,
+    #[serde(default)]
+    pub rotate_deg: Vec3,
+    #[serde(default)]
+    pub translate: Vec3,
+}
+
+fn default_scale() -> Vec3 {
+    [1.0, 1.0, 1.0]
+}
+
+impl Default for Transform {
+    fn default() -> Self {
+        Transform {
+            scale: default_scale(),
+            rotate_deg: [0.0; 3],
+            translate: [0.0; 3],
+        }
+    }
+}
+
+/// What an object is made of.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Material {
+    /// A smooth refractive interface of relative index `eta` (medium over air, >= 1) enclosing
+    /// a homogeneous participating medium.
+    Dielectric { eta: f64, medium: Medium },
+    /// An opaque Lambertian surface (a floor).
+    Diffuse { reflectance: Rgb },
+}
+
+/// A homogeneous participating medium.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Medium {
+    /// Extinction coefficient per scene unit.
+    pub sigma_t: Rgb,
+    /// Single-scattering albedo σ_s/σ_t in [0, 1].
+    pub albedo: Rgb,
+    #[serde(default)]
+    pub phase: Phase,
+}
+
+/// Phase function of a medium.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Phase {
+    #[default]
+    Isotropic,
+    /// Henyey–Greenstein with mean cosine `g` in (-1, 1).
+    Hg { g: f64 },
+}
+
+/// The integrator: depth limits and the single-scattering method.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Integrator {
+    /// Specular bounces followed along a camera path.
+    #[serde(default = "default_max_depth")]
+    pub max_depth: u32,
+    /// Internal reflections followed inside a medium (0 = only the first segment inside).
+    #[serde(default = "default_internal_reflections")]
+    pub internal_reflections: u32,
+    #[serde(default)]
+    pub single_scatter: SingleScatter,
+}
+
+fn default_max_depth() -> u32 {
+    8
+}
+fn default_internal_reflections() -> u32 {
+    2
+}
+
+impl Default for Integrator {
+    fn default() -> Self {
+        Integrator {
+            max_depth: default_max_depth(),
+            internal_reflections: default_internal_reflections(),
+            single_scatter: SingleScatter::default(),
+        }
+    }
+}
+
+/// Which single-scattering estimator runs, and its accuracy settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SingleScatter {
+    #[serde(default)]
+    pub method: ScatterMethod,
+    /// Interval method: samples per triangle interval (midpoint rule).
+    #[serde(default = "default_k")]
+    pub k: u32,
+    /// Interval method: jitter the K samples (unbiased) instead of the midpoint rule.
+    #[serde(default)]
+    pub jitter: bool,
+    /// Newton stopping tolerance on ‖f‖ for sample points (relative, dimensionless).
+    #[serde(default = "default_newton_tolerance")]
+    pub newton_tolerance: f64,
+    /// Point sampling (and the reference): stratified samples along each camera segment.
+    #[serde(default = "default_samples_per_segment")]
+    pub samples_per_segment: u32,
+    /// Pruning stages; each can be switched off for measurement.
+    #[serde(default)]
+    pub pruning: Pruning,
+    /// `auto` only: allowed relative error when choosing a cheaper model (e.g. straight line).
+    #[serde(default = "default_auto_tolerance")]
+    pub auto_tolerance: f64,
+}
+
+fn default_k() -> u32 {
+    1
+}
+fn default_newton_tolerance() -> f64 {
+    1e-10
+}
+fn default_samples_per_segment() -> u32 {
+    64
+}
+fn default_auto_tolerance() -> f64 {
+    0.0
+}
+
+impl Default for SingleScatter {
+    fn default() -> Self {
+        SingleScatter {
+            method: ScatterMethod::default(),
+            k: default_k(),
+            jitter: false,
+            newton_tolerance: default_newton_tolerance(),
+            samples_per_segment: default_samples_per_segment(),
+            pruning: Pruning::default(),
+            auto_tolerance: default_auto_tolerance(),
+        }
+    }
+}
+
+/// The single-scattering estimators.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ScatterMethod {
+    /// Choose the cheapest exact model the scene allows (and say which in the log and EXR header).
+    #[default]
+    Auto,
+    /// Holzschuch 2015: per-triangle depth intervals.
+    Interval,
+    /// Walter et al. 2009: stratified points along the segment.
+    PointSampling,
+    /// Straight-line approximation (light reaches V in a straight line through the boundary).
+    StraightLine,
+    /// Brute force with no pruning and dense sampling, for tests.
+    Reference,
+    /// No single scattering (the `single_scatter` layer stays black).
+    None,
+}
+
+/// Pruning stages of the hierarchical descent ([H15] §3.2.4).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Pruning {
+    /// The spindle test on BVH nodes.
+    #[serde(default = "yes")]
+    pub spindle: bool,
+    /// The half-vector / shading-normal cone test per triangle.
+    #[serde(default = "yes")]
+    pub cone: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+
+impl Default for Pruning {
+    fn default() -> Self {
+        Pruning {
+            spindle: true,
+            cone: true,
+        }
+    }
+}

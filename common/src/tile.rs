@@ -1,0 +1,125 @@
+//! Tiles: rectangles of the image, the unit of work the farm hands out, and their pixels.
+//!
+//! A tile's pixels depend only on the scene and the tile's rectangle (never on which worker or
+//! thread rendered it), so tiles can be rendered anywhere, in any order, and assembled into
+//! identical images.
+
+use serde::{Deserialize, Serialize};
+
+use crate::stats::RenderStats;
+
+/// A rectangle of pixels: columns `x .. x + width`, rows `y .. y + height` (row 0 at the top).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, utoipa::ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TileRect {
+    pub x: u32,
+    pub y: u32,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl TileRect {
+    /// Number of pixels in the rectangle.
+    pub fn pixel_count(&self) -> usize {
+        self.width as usize * self.height as usize
+    }
+}
+
+/// The image layers spindle writes, in this order. `total` = `surface` + `single_scatter`.
+pub const LAYER_NAMES: [&str; 3] = ["total", "surface", "single_scatter"];
+
+/// Rendered pixels of one rectangle: for each layer in [`LAYER_NAMES`] order, RGB triples in
+/// row-major order (`(row * width + col) * 3 + channel`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TilePixels {
+    pub rect: TileRect,
+    pub total: Vec<f32>,
+    pub surface: Vec<f32>,
+    pub single_scatter: Vec<f32>,
+    pub stats: RenderStats,
+}
+
+impl TilePixels {
+    /// A black tile of the given rectangle.
+    pub fn black(rect: TileRect) -> TilePixels {
+        let n = rect.pixel_count() * 3;
+        TilePixels {
+            rect,
+            total: vec![0.0; n],
+            surface: vec![0.0; n],
+            single_scatter: vec![0.0; n],
+            stats: RenderStats::default(),
+        }
+    }
+
+    /// The layers in [`LAYER_NAMES`] order.
+    pub fn layers(&self) -> [&[f32]; 3] {
+        [&self.total, &self.surface, &self.single_scatter]
+    }
+}
+
+/// Splits a `width` × `height` image into tiles of at most `size` × `size` pixels, ordered
+/// centre-first (by the distance of each tile's centre from the image centre, ties broken by
+/// row then column), so a preview fills in from where the subject usually is.
+pub fn split_centre_first(width: u32, height: u32, size: u32) -> Vec<TileRect> {
+    let size = size.max(1);
+    let mut tiles = Vec::new();
+    let mut y = 0;
+    while y < height {
+        let mut x = 0;
+        while x < width {
+            tiles.push(TileRect {
+                x,
+                y,
+                width: size.min(width - x),
+                height: size.min(height - y),
+            });
+            x += size;
+        }
+        y += size;
+    }
+    // Twice the centre distance, in integers, so the order is exact and platform-independent.
+    let key = |t: &TileRect| {
+        let dx = (2 * t.x + t.width) as i64 - width as i64;
+        let dy = (2 * t.y + t.height) as i64 - height as i64;
+        (dx * dx + dy * dy, t.y, t.x)
+    };
+    tiles.sort_by_key(key);
+    tiles
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tiles_cover_every_pixel_exactly_once() {
+        for (w, h, s) in [
+            (1, 1, 32),
+            (100, 37, 32),
+            (64, 64, 16),
+            (33, 65, 64),
+            (7, 300, 5),
+        ] {
+            let mut hits = vec![0u32; (w * h) as usize];
+            for t in split_centre_first(w, h, s) {
+                assert!(t.width >= 1 && t.height >= 1 && t.width <= s && t.height <= s);
+                for row in t.y..t.y + t.height {
+                    for col in t.x..t.x + t.width {
+                        hits[(row * w + col) as usize] += 1;
+                    }
+                }
+            }
+            assert!(hits.iter().all(|&n| n == 1), "{w}x{h} tile {s}");
+        }
+    }
+
+    #[test]
+    fn first_tile_holds_the_centre() {
+        let tiles = split_centre_first(256, 128, 32);
+        let t = tiles[0];
+        let (cx, cy) = (128, 64);
+        assert!(t.x <= cx && cx <= t.x + t.width && t.y <= cy && cy <= t.y + t.height);
+    }
+}

@@ -1,0 +1,2 @@
+//! The spindle renderer, as a pure library (scene in, pixels out), and the farm worker process.
+#![forbid(unsafe_code)]
