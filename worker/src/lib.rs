@@ -1,2 +1,4 @@
 //! The spindle renderer, as a pure library (scene in, pixels out), and the farm worker process.
 #![forbid(unsafe_code)]
+
+pub mod render;

@@ -1,0 +1,445 @@
+//! Triangle meshes: the geometry every object is made of, in f64.
+//!
+//! A [`TriangleMesh`] holds positions, one unit normal per vertex and `[u32; 3]` triangles.
+//! Convention, stated once: **vertex normals point outward**, and triangles wind
+//! counter-clockwise seen from outside, so the geometric normal `E1 × E2` points outward too.
+//! Meshes are checked when built (finite coordinates, indices in range); their shape is
+//! summarised by a [`MeshReport`] (degenerate triangles, closed or not).
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+
+/// What is wrong with a mesh handed to [`TriangleMesh::new`].
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MeshError {
+    #[error("the mesh has no triangles")]
+    Empty,
+    #[error("vertex {vertex} has a non-finite coordinate {value:?}")]
+    NonFinitePosition { vertex: usize, value: [f64; 3] },
+    #[error("vertex {vertex} has a non-finite or zero normal {value:?}")]
+    BadNormal { vertex: usize, value: [f64; 3] },
+    #[error("triangle {triangle} refers to vertex {index}, but there are only {vertices} vertices")]
+    IndexOutOfRange {
+        triangle: usize,
+        index: u32,
+        vertices: usize,
+    },
+    #[error("{normals} normals for {vertices} vertices")]
+    NormalCount { normals: usize, vertices: usize },
+}
+
+/// A triangle mesh with per-vertex outward unit normals.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TriangleMesh {
+    positions: Vec<DVec3>,
+    normals: Vec<DVec3>,
+    triangles: Vec<[u32; 3]>,
+}
+
+/// A summary of a mesh's shape, for warnings and logs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MeshReport {
+    pub triangles: usize,
+    /// Triangles with (near) zero area; they are kept but can never be hit.
+    pub degenerate: usize,
+    /// Every edge (vertices welded by exact position) is shared by exactly two triangles that
+    /// traverse it in opposite directions: the mesh bounds a volume.
+    pub closed: bool,
+    /// Edges used by only one triangle (holes).
+    pub boundary_edges: usize,
+}
+
+impl TriangleMesh {
+    /// A mesh from positions, optional per-vertex normals and triangles. Without normals, smooth
+    /// angle-weighted normals are computed (see [`smooth_normals`]). A closed mesh wound
+    /// inside-out (negative enclosed volume) is rewound outward. Given normals are normalised and
+    /// flipped where they disagree with the winding's smooth normal, so all normals point out.
+    pub fn new(
+        positions: Vec<DVec3>,
+        normals: Option<Vec<DVec3>>,
+        mut triangles: Vec<[u32; 3]>,
+    ) -> Result<TriangleMesh, MeshError> {
+        if triangles.is_empty() {
+            return Err(MeshError::Empty);
+        }
+        if let Some((vertex, p)) = positions.iter().enumerate().find(|(_, p)| !p.is_finite()) {
+            return Err(MeshError::NonFinitePosition {
+                vertex,
+                value: p.to_array(),
+            });
+        }
+        for (triangle, t) in triangles.iter().enumerate() {
+            if let Some(&index) = t.iter().find(|&&i| i as usize >= positions.len()) {
+                return Err(MeshError::IndexOutOfRange {
+                    triangle,
+                    index,
+                    vertices: positions.len(),
+                });
+            }
+        }
+        // Orient an inside-out closed mesh outward (the volume is only meaningful when closed).
+        if signed_volume(&positions, &triangles) < 0.0 && edge_report(&positions, &triangles).0 {
+            for t in &mut triangles {
+                t.swap(1, 2);
+            }
+        }
+        let smooth = smooth_normals(&positions, &triangles);
+        let normals = match normals {
+            None => smooth,
+            Some(given) => {
+                if given.len() != positions.len() {
+                    return Err(MeshError::NormalCount {
+                        normals: given.len(),
+                        vertices: positions.len(),
+                    });
+                }
+                let mut out = Vec::with_capacity(given.len());
+                for (vertex, (n, s)) in given.iter().zip(&smooth).enumerate() {
+                    let Some(unit) = n.try_normalize() else {
+                        return Err(MeshError::BadNormal {
+                            vertex,
+                            value: n.to_array(),
+                        });
+                    };
+                    // Given normals that disagree with the (outward) winding are flipped.
+                    out.push(if unit.dot(*s) < 0.0 { -unit } else { unit });
+                }
+                out
+            }
+        };
+        Ok(TriangleMesh {
+            positions,
+            normals,
+            triangles,
+        })
+    }
+
+    pub fn positions(&self) -> &[DVec3] {
+        &self.positions
+    }
+
+    pub fn normals(&self) -> &[DVec3] {
+        &self.normals
+    }
+
+    pub fn triangles(&self) -> &[[u32; 3]] {
+        &self.triangles
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// The corners `[P0, P1, P2]` of triangle `i`.
+    pub fn corners(&self, i: usize) -> [DVec3; 3] {
+        let [a, b, c] = self.triangles[i];
+        [
+            self.positions[a as usize],
+            self.positions[b as usize],
+            self.positions[c as usize],
+        ]
+    }
+
+    /// The vertex normals `[N0, N1, N2]` of triangle `i`.
+    pub fn corner_normals(&self, i: usize) -> [DVec3; 3] {
+        let [a, b, c] = self.triangles[i];
+        [
+            self.normals[a as usize],
+            self.normals[b as usize],
+            self.normals[c as usize],
+        ]
+    }
+
+    /// Unnormalised geometric normal `E1 × E2` of triangle `i` (outward, length twice the area).
+    pub fn geometric_normal(&self, i: usize) -> DVec3 {
+        let [p0, p1, p2] = self.corners(i);
+        (p1 - p0).cross(p2 - p0)
+    }
+
+    /// Unit interpolated shading normal `normalize(N0 + a(N1 − N0) + b(N2 − N0))` at barycentrics
+    /// (a, b); falls back to the geometric normal where the interpolation vanishes.
+    pub fn shading_normal(&self, i: usize, a: f64, b: f64) -> DVec3 {
+        let [n0, n1, n2] = self.corner_normals(i);
+        let n = n0 + a * (n1 - n0) + b * (n2 - n0);
+        n.try_normalize()
+            .unwrap_or_else(|| self.geometric_normal(i).normalize_or_zero())
+    }
+
+    /// The point at barycentrics (a, b): `P0 + a·E1 + b·E2`.
+    pub fn point(&self, i: usize, a: f64, b: f64) -> DVec3 {
+        let [p0, p1, p2] = self.corners(i);
+        p0 + a * (p1 - p0) + b * (p2 - p0)
+    }
+
+    /// Axis-aligned bounds `(min, max)` of the vertices.
+    pub fn bounds(&self) -> (DVec3, DVec3) {
+        self.positions.iter().fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), &p| (lo.min(p), hi.max(p)),
+        )
+    }
+
+    /// Degenerate triangles and closedness.
+    pub fn report(&self) -> MeshReport {
+        let (closed, boundary_edges) = edge_report(&self.positions, &self.triangles);
+        let degenerate = (0..self.triangles.len())
+            .filter(|&i| is_degenerate(self.corners(i)))
+            .count();
+        MeshReport {
+            triangles: self.triangles.len(),
+            degenerate,
+            closed,
+            boundary_edges,
+        }
+    }
+
+    /// The mesh with every position and normal mapped (for transforms). `flip_winding` reverses
+    /// every triangle, for mappings that mirror space, so the winding stays outward.
+    pub fn mapped(
+        &self,
+        position: impl Fn(DVec3) -> DVec3,
+        normal: impl Fn(DVec3) -> DVec3,
+        flip_winding: bool,
+    ) -> TriangleMesh {
+        let positions = self.positions.iter().map(|&p| position(p)).collect();
+        let normals = self
+            .normals
+            .iter()
+            .map(|&n| normal(n).normalize_or_zero())
+            .collect();
+        let mut triangles = self.triangles.clone();
+        if flip_winding {
+            for t in &mut triangles {
+                t.swap(1, 2);
+            }
+        }
+        TriangleMesh {
+            positions,
+            normals,
+            triangles,
+        }
+    }
+}
+
+/// A triangle is degenerate when its area is below 1e-12 of the square of its longest edge
+/// (collinear or repeated corners).
+fn is_degenerate([p0, p1, p2]: [DVec3; 3]) -> bool {
+    let longest = (p1 - p0)
+        .length_squared()
+        .max((p2 - p1).length_squared())
+        .max((p0 - p2).length_squared());
+    (p1 - p0).cross(p2 - p0).length_squared() <= 1e-24 * longest * longest || longest == 0.0
+}
+
+/// Each vertex's representative under welding by exact position (bit pattern).
+fn weld(positions: &[DVec3]) -> Vec<u32> {
+    let mut first: HashMap<[u64; 3], u32> = HashMap::with_capacity(positions.len());
+    positions
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            *first
+                .entry([p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
+                .or_insert(i as u32)
+        })
+        .collect()
+}
+
+/// `(closed, boundary_edges)` of a triangle soup, welding vertices by exact position.
+fn edge_report(positions: &[DVec3], triangles: &[[u32; 3]]) -> (bool, usize) {
+    let canon = weld(positions);
+    // Per undirected edge: (uses in the low→high direction, uses in the high→low direction).
+    let mut edges: HashMap<(u32, u32), (u32, u32)> = HashMap::with_capacity(triangles.len() * 2);
+    for t in triangles {
+        for k in 0..3 {
+            let (a, b) = (canon[t[k] as usize], canon[t[(k + 1) % 3] as usize]);
+            if a == b {
+                continue;
+            }
+            let entry = edges.entry((a.min(b), a.max(b))).or_default();
+            if a < b {
+                entry.0 += 1;
+            } else {
+                entry.1 += 1;
+            }
+        }
+    }
+    let boundary = edges.values().filter(|&&(f, r)| f + r == 1).count();
+    let closed = !edges.is_empty() && edges.values().all(|&(f, r)| f == 1 && r == 1);
+    (closed, boundary)
+}
+
+/// Signed enclosed volume (positive when a closed mesh winds outward).
+fn signed_volume(positions: &[DVec3], triangles: &[[u32; 3]]) -> f64 {
+    // Relative to the first vertex, for accuracy far from the origin.
+    let o = positions.first().copied().unwrap_or(DVec3::ZERO);
+    triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| positions[i as usize] - o);
+            a.dot(b.cross(c))
+        })
+        .sum::<f64>()
+        / 6.0
+}
+
+/// Smooth vertex normals: each triangle's unit normal weighted by its corner angle, summed over
+/// the vertices welded by exact position (so seam duplicates share one normal). Degenerate
+/// triangles add nothing; a vertex touched only by degenerate triangles gets the normal of its
+/// position direction from the mesh centroid, or +z, so every normal is a unit vector.
+pub fn smooth_normals(positions: &[DVec3], triangles: &[[u32; 3]]) -> Vec<DVec3> {
+    let canon = weld(positions);
+    let mut sum = vec![DVec3::ZERO; positions.len()];
+    for t in triangles {
+        let [p0, p1, p2] = t.map(|i| positions[i as usize]);
+        let Some(n) = (p1 - p0).cross(p2 - p0).try_normalize() else {
+            continue;
+        };
+        let angles = [
+            corner_angle(p1 - p0, p2 - p0),
+            corner_angle(p2 - p1, p0 - p1),
+            corner_angle(p0 - p2, p1 - p2),
+        ];
+        for k in 0..3 {
+            sum[canon[t[k] as usize] as usize] += n * angles[k];
+        }
+    }
+    let centroid = positions.iter().copied().sum::<DVec3>() / positions.len().max(1) as f64;
+    (0..positions.len())
+        .map(|i| {
+            sum[canon[i] as usize]
+                .try_normalize()
+                .or_else(|| (positions[i] - centroid).try_normalize())
+                .unwrap_or(DVec3::Z)
+        })
+        .collect()
+}
+
+/// The angle between two edge vectors, by atan2 (accurate near 0 and π, unlike acos).
+fn corner_angle(u: DVec3, v: DVec3) -> f64 {
+    u.cross(v).length().atan2(u.dot(v))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A unit cube, 12 triangles wound outward, 8 shared vertices.
+    pub(crate) fn cube() -> (Vec<DVec3>, Vec<[u32; 3]>) {
+        let p = (0..8)
+            .map(|i| DVec3::new((i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64))
+            .collect();
+        let t = vec![
+            [0, 2, 1],
+            [1, 2, 3], // z = 0, normal -z
+            [4, 5, 6],
+            [5, 7, 6], // z = 1, normal +z
+            [0, 1, 4],
+            [1, 5, 4], // y = 0, normal -y
+            [2, 6, 3],
+            [3, 6, 7], // y = 1, normal +y
+            [0, 4, 2],
+            [2, 4, 6], // x = 0, normal -x
+            [1, 3, 5],
+            [3, 7, 5], // x = 1, normal +x
+        ];
+        (p, t)
+    }
+
+    #[test]
+    fn cube_is_closed_and_normals_point_out_along_the_diagonals() {
+        let (p, t) = cube();
+        let mesh = TriangleMesh::new(p, None, t).unwrap();
+        let report = mesh.report();
+        assert_eq!(
+            report,
+            MeshReport {
+                triangles: 12,
+                degenerate: 0,
+                closed: true,
+                boundary_edges: 0
+            }
+        );
+        let centre = DVec3::splat(0.5);
+        for (p, n) in mesh.positions().iter().zip(mesh.normals()) {
+            // Angle weighting makes a cube corner's normal the exact diagonal.
+            let expected = (*p - centre).normalize();
+            assert!((*n - expected).length() < 1e-12, "{p} {n}");
+        }
+        for i in 0..12 {
+            let c = mesh.corners(i).iter().copied().sum::<DVec3>() / 3.0;
+            assert!(mesh.geometric_normal(i).dot(c - centre) > 0.0);
+        }
+    }
+
+    #[test]
+    fn inside_out_cube_is_turned_outward() {
+        let (p, mut t) = cube();
+        for tri in &mut t {
+            tri.swap(0, 1);
+        }
+        let mesh = TriangleMesh::new(p, None, t).unwrap();
+        for i in 0..12 {
+            let c = mesh.corners(i).iter().copied().sum::<DVec3>() / 3.0;
+            assert!(mesh.geometric_normal(i).dot(c - DVec3::splat(0.5)) > 0.0);
+        }
+        assert!(mesh.normals()[7].dot(DVec3::ONE) > 0.0);
+    }
+
+    #[test]
+    fn open_mesh_reports_boundary_edges_and_degenerates() {
+        let (p, mut t) = cube();
+        t.pop(); // one triangle missing: its 3 edges become boundary edges
+        t.push([0, 0, 1]); // a degenerate sliver (two equal corners)
+        let mesh = TriangleMesh::new(p, None, t).unwrap();
+        let report = mesh.report();
+        assert!(!report.closed);
+        assert_eq!(report.boundary_edges, 3);
+        assert_eq!(report.degenerate, 1);
+        assert!(
+            mesh.normals()
+                .iter()
+                .all(|n| (n.length() - 1.0).abs() < 1e-12)
+        );
+    }
+
+    #[test]
+    fn bad_input_is_a_clear_error() {
+        let (p, t) = cube();
+        let mut nan = p.clone();
+        nan[3].y = f64::NAN;
+        assert!(matches!(
+            TriangleMesh::new(nan, None, t.clone()),
+            Err(MeshError::NonFinitePosition { vertex: 3, .. })
+        ));
+        let mut bad = t.clone();
+        bad[5][2] = 8;
+        let e = TriangleMesh::new(p.clone(), None, bad).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "triangle 5 refers to vertex 8, but there are only 8 vertices"
+        );
+        assert_eq!(
+            TriangleMesh::new(p, None, vec![]).unwrap_err(),
+            MeshError::Empty
+        );
+    }
+
+    #[test]
+    fn welded_seam_duplicates_share_one_normal() {
+        // Two triangles of a tent roof; vertex 1 and 4 are the same point (a UV seam copy).
+        let p = vec![
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(1.0, 1.0, 0.0),
+            DVec3::new(1.0, 1.0, 1.0),
+            DVec3::new(2.0, 0.0, 0.0),
+            DVec3::new(1.0, 1.0, 0.0),
+            DVec3::new(1.0, 1.0, 1.0),
+        ];
+        let t = vec![[0, 2, 1], [3, 4, 5]];
+        let n = smooth_normals(&p, &t);
+        assert_eq!(n[1], n[4]);
+        assert!((n[1] - DVec3::Y).length() < 1e-12, "{}", n[1]);
+    }
+}
