@@ -3,6 +3,8 @@
 //! renderer, the coordinator, the worker process and the `spindle` command have in common.
 #![forbid(unsafe_code)]
 
+pub mod image;
 pub mod scene;
 pub mod stats;
 pub mod tile;
+pub mod validate;

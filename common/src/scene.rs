@@ -1,11 +1,14 @@
 //! The scene file format: what a user (or an outside tool) writes to describe a render.
 //!
 //! These are the JSON types only. Every struct rejects unknown fields; values are checked by
-//! [`Scene::from_json`] (and [`Scene::validate`]), which names the JSON path of the first bad
-//! value (`objects[0].medium.sigma_t: must be >= 0`). The renderer turns a validated `Scene`
-//! into its own values; it never sees raw JSON. `scenes/README.md` documents every field.
+//! [`Scene::from_json`] (and [`Scene::validate`], both in [`crate::validate`]), which name the
+//! JSON path of the first bad value (`objects[0].material.medium.sigma_t[1]: must be >= 0, got
+//! -0.5`). The renderer turns a validated `Scene` into its own values; it never sees raw JSON.
+//! `scenes/README.md` documents every field.
 
 use serde::{Deserialize, Serialize};
+
+pub use crate::validate::SceneError;
 
 /// An RGB triple (linear, per-channel).
 pub type Rgb = [f64; 3];

@@ -1,0 +1,523 @@
+//! The finished image: the three layers of a whole frame, and the files spindle writes.
+//!
+//! Tiles arrive from anywhere (the coordinator takes them from workers over the network, so a
+//! tile is untrusted until checked) and are placed into an [`Image`]; the image is then written
+//! as one OpenEXR file with a channel group per layer, and as a tone-mapped PNG preview.
+//!
+//! Conventions, stated once:
+//! - Pixels are RGB `f32`, row-major, row 0 at the top, the same layout as
+//!   [`TilePixels`]: sample `(row * width + col) * 3 + channel`.
+//! - The EXR file is one part, scanlines in increasing order, ZIP compression (16 lines per
+//!   block), channels `R,G,B` (= `total`), `surface.R/G/B` and `single_scatter.R/G/B`, all
+//!   32-bit float, and one text header attribute per entry of [`Image::attributes`].
+//! - The bytes of a file are a pure function of the image: no timestamps, and header
+//!   attributes are written sorted by name (as OpenEXR's own library does), so the same image
+//!   always gives the same bytes.
+//! - Files are written atomically: to a temporary file in the destination directory, flushed
+//!   to disk, then renamed over the destination, so a crash never leaves a half-written file
+//!   under the final name.
+//! - Non-finite samples (NaN, ±inf) are written as they are; [`Image::non_finite_count`] lets a
+//!   caller report them.
+
+use std::collections::BTreeMap;
+use std::io::{Cursor, Write};
+use std::path::{Path, PathBuf};
+
+use crate::tile::{LAYER_NAMES, TilePixels, TileRect};
+
+/// A bad tile, a bad image or a failed read or write.
+#[derive(Debug, thiserror::Error)]
+pub enum ImageError {
+    /// The tile does not lie inside the image.
+    #[error(
+        "tile {rect:?} lies outside the {width}x{height} image (it must satisfy x + width <= \
+         {width} and y + height <= {height})"
+    )]
+    TileOutside {
+        rect: TileRect,
+        width: u32,
+        height: u32,
+    },
+    /// The tile covers no pixel.
+    #[error("tile {rect:?} is empty (width and height must be >= 1)")]
+    EmptyTile { rect: TileRect },
+    /// A layer buffer of a tile or an image has the wrong number of samples.
+    #[error("layer `{layer}` has {actual} samples, expected {expected} (3 per pixel)")]
+    BufferLength {
+        layer: &'static str,
+        expected: usize,
+        actual: usize,
+    },
+    /// The image has no pixels, so there is nothing to write.
+    #[error("the image is empty ({width}x{height}); width and height must be >= 1")]
+    EmptyImage { width: u32, height: u32 },
+    /// A header attribute cannot be stored in an EXR file.
+    #[error("header attribute `{name}`: {problem}")]
+    Attribute { name: String, problem: String },
+    /// The EXR library refused to write or read, or the file is not a spindle EXR.
+    #[error("EXR {path}: {problem}")]
+    Exr { path: String, problem: String },
+    /// The PNG encoder failed.
+    #[error("PNG {path}: {problem}")]
+    Png { path: String, problem: String },
+    /// A file could not be read, written or renamed.
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// The EXR channel groups of each layer, in [`LAYER_NAMES`] order. `total` is the plain,
+/// ungrouped `R,G,B`, so any viewer shows it by default.
+const EXR_PREFIXES: [&str; 3] = ["", "surface.", "single_scatter."];
+const RGB: [&str; 3] = ["R", "G", "B"];
+
+/// A full frame: the three layers of every pixel, and text attributes for the file header.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Image {
+    pub width: u32,
+    pub height: u32,
+    /// `surface + single_scatter`, RGB, row-major.
+    pub total: Vec<f32>,
+    /// Reflected and transmitted light, RGB, row-major.
+    pub surface: Vec<f32>,
+    /// Single scattering inside media, RGB, row-major.
+    pub single_scatter: Vec<f32>,
+    /// Written as text attributes of the EXR header (e.g. `spindle.spp` = `64`).
+    pub attributes: BTreeMap<String, String>,
+}
+
+impl Image {
+    /// A black `width` × `height` image with no attributes.
+    pub fn new(width: u32, height: u32) -> Image {
+        let n = width as usize * height as usize * 3;
+        Image {
+            width,
+            height,
+            total: vec![0.0; n],
+            surface: vec![0.0; n],
+            single_scatter: vec![0.0; n],
+            attributes: BTreeMap::new(),
+        }
+    }
+
+    /// Samples per layer: three per pixel.
+    fn sample_count(&self) -> usize {
+        self.width as usize * self.height as usize * 3
+    }
+
+    /// The layers in [`LAYER_NAMES`] order.
+    pub fn layers(&self) -> [&[f32]; 3] {
+        [&self.total, &self.surface, &self.single_scatter]
+    }
+
+    fn layers_mut(&mut self) -> [&mut Vec<f32>; 3] {
+        [&mut self.total, &mut self.surface, &mut self.single_scatter]
+    }
+
+    /// Copies a rendered tile into its place. The tile is checked first (it may come from the
+    /// network): it must be non-empty, lie inside the image, and carry exactly three samples
+    /// per pixel in each layer; otherwise the image is left unchanged.
+    pub fn insert_tile(&mut self, tile: &TilePixels) -> Result<(), ImageError> {
+        self.check_buffers()?;
+        let rect = tile.rect;
+        if rect.width == 0 || rect.height == 0 {
+            return Err(ImageError::EmptyTile { rect });
+        }
+        // u64 so that a hostile x + width cannot wrap around.
+        let inside = u64::from(rect.x) + u64::from(rect.width) <= u64::from(self.width)
+            && u64::from(rect.y) + u64::from(rect.height) <= u64::from(self.height);
+        if !inside {
+            return Err(ImageError::TileOutside {
+                rect,
+                width: self.width,
+                height: self.height,
+            });
+        }
+        let expected = rect.pixel_count() * 3;
+        for (layer, samples) in LAYER_NAMES.iter().zip(tile.layers()) {
+            if samples.len() != expected {
+                return Err(ImageError::BufferLength {
+                    layer,
+                    expected,
+                    actual: samples.len(),
+                });
+            }
+        }
+
+        let image_width = self.width as usize;
+        let row_len = rect.width as usize * 3;
+        for (dst, src) in self.layers_mut().into_iter().zip(tile.layers()) {
+            for row in 0..rect.height as usize {
+                let start = ((rect.y as usize + row) * image_width + rect.x as usize) * 3;
+                dst[start..start + row_len].copy_from_slice(&src[row * row_len..][..row_len]);
+            }
+        }
+        Ok(())
+    }
+
+    /// The number of pixels with a NaN or infinite sample in any layer.
+    pub fn non_finite_count(&self) -> usize {
+        let pixels = self.width as usize * self.height as usize;
+        (0..pixels)
+            .filter(|&p| {
+                self.layers()
+                    .iter()
+                    .any(|layer| layer.get(p * 3..p * 3 + 3).is_some_and(|s| s.iter().any(|v| !v.is_finite())))
+            })
+            .count()
+    }
+
+    /// Checks that every layer holds exactly three samples per pixel (the fields are public, so
+    /// a caller may have changed one).
+    fn check_buffers(&self) -> Result<(), ImageError> {
+        let expected = self.sample_count();
+        for (layer, samples) in LAYER_NAMES.iter().zip(self.layers()) {
+            if samples.len() != expected {
+                return Err(ImageError::BufferLength {
+                    layer,
+                    expected,
+                    actual: samples.len(),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    fn check_writable(&self) -> Result<(), ImageError> {
+        if self.width == 0 || self.height == 0 {
+            return Err(ImageError::EmptyImage {
+                width: self.width,
+                height: self.height,
+            });
+        }
+        self.check_buffers()
+    }
+
+    /// The complete EXR file as bytes (see the module documentation for its layout).
+    pub fn to_exr_bytes(&self) -> Result<Vec<u8>, ImageError> {
+        use exr::prelude::{
+            AnyChannel, AnyChannels, Blocks, Compression, Encoding, FlatSamples, Layer,
+            LayerAttributes, LineOrder, WritableImage,
+        };
+
+        self.check_writable()?;
+        let exr_error = |e: exr::error::Error| ImageError::Exr {
+            path: "(in memory)".into(),
+            problem: e.to_string(),
+        };
+
+        let mut attributes = LayerAttributes::default();
+        for (name, value) in &self.attributes {
+            let (name, value) = exr_attribute(name, value)?;
+            attributes.other.insert(name, value);
+        }
+
+        // One plane per channel, taken out of the interleaved RGB layers.
+        let pixels = self.width as usize * self.height as usize;
+        let mut channels = smallvec_of_channels();
+        for (prefix, layer) in EXR_PREFIXES.iter().zip(self.layers()) {
+            for (c, name) in RGB.iter().enumerate() {
+                let plane: Vec<f32> = (0..pixels).map(|p| layer[p * 3 + c]).collect();
+                channels.push(AnyChannel::new(
+                    format!("{prefix}{name}").as_str(),
+                    FlatSamples::F32(plane),
+                ));
+            }
+        }
+
+        let encoding = Encoding {
+            compression: Compression::ZIP16,
+            blocks: Blocks::ScanLines,
+            // Increasing order makes the parallel compressor write blocks in file order.
+            line_order: LineOrder::Increasing,
+        };
+        let layer = Layer::new(
+            (self.width as usize, self.height as usize),
+            attributes,
+            encoding,
+            AnyChannels::sort(channels),
+        );
+        let mut out = Cursor::new(Vec::new());
+        exr::prelude::Image::from_layer(layer)
+            .write()
+            .to_buffered(&mut out)
+            .map_err(exr_error)?;
+        let mut bytes = out.into_inner();
+        sort_exr_header_attributes(&mut bytes)?;
+        Ok(bytes)
+    }
+
+    /// Writes the image as an OpenEXR file, atomically.
+    pub fn write_exr(&self, path: impl AsRef<Path>) -> Result<(), ImageError> {
+        let path = path.as_ref();
+        let bytes = self.to_exr_bytes().map_err(|e| match e {
+            ImageError::Exr { problem, .. } => ImageError::Exr {
+                path: path.display().to_string(),
+                problem,
+            },
+            other => other,
+        })?;
+        write_atomically(path, &bytes)
+    }
+
+    /// Reads an EXR file written by [`Image::write_exr`] (or any one-part EXR with the same
+    /// nine float channels), with its text header attributes.
+    pub fn from_exr_bytes(bytes: &[u8]) -> Result<Image, ImageError> {
+        read_exr_from(bytes, "(in memory)")
+    }
+
+    /// The `total` layer tone-mapped to an 8-bit sRGB PNG (see [`preview_pixel`]).
+    pub fn to_png_preview_bytes(&self) -> Result<Vec<u8>, ImageError> {
+        self.check_writable()?;
+        let png_error = |e: png::EncodingError| ImageError::Png {
+            path: "(in memory)".into(),
+            problem: e.to_string(),
+        };
+        let data: Vec<u8> = self.total.iter().map(|&v| preview_pixel(v)).collect();
+        let mut out = Vec::new();
+        let mut encoder = png::Encoder::new(&mut out, self.width, self.height);
+        encoder.set_color(png::ColorType::Rgb);
+        encoder.set_depth(png::BitDepth::Eight);
+        encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+        let mut writer = encoder.write_header().map_err(png_error)?;
+        writer.write_image_data(&data).map_err(png_error)?;
+        writer.finish().map_err(png_error)?;
+        Ok(out)
+    }
+
+    /// Writes the PNG preview of the `total` layer, atomically.
+    pub fn write_png_preview(&self, path: impl AsRef<Path>) -> Result<(), ImageError> {
+        let path = path.as_ref();
+        let bytes = self.to_png_preview_bytes().map_err(|e| match e {
+            ImageError::Png { problem, .. } => ImageError::Png {
+                path: path.display().to_string(),
+                problem,
+            },
+            other => other,
+        })?;
+        write_atomically(path, &bytes)
+    }
+}
+
+/// Reads an EXR file written by [`Image::write_exr`]; see [`Image::from_exr_bytes`].
+pub fn read_exr(path: impl AsRef<Path>) -> Result<Image, ImageError> {
+    let path = path.as_ref();
+    let bytes = std::fs::read(path).map_err(|source| ImageError::Io {
+        path: path.display().to_string(),
+        source,
+    })?;
+    read_exr_from(&bytes, &path.display().to_string())
+}
+
+/// The preview's tone map for one linear sample: clamp to [0, 1] at exposure 1 (no curve, so a
+/// radiance in [0, 1] keeps its value), then the sRGB transfer function, rounded to 8 bits.
+/// NaN and negative values show black, +inf white.
+pub fn preview_pixel(linear: f32) -> u8 {
+    let x = if linear.is_nan() {
+        0.0
+    } else {
+        f64::from(linear).clamp(0.0, 1.0)
+    };
+    let srgb = if x <= 0.003_130_8 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    };
+    (srgb * 255.0 + 0.5).floor() as u8
+}
+
+fn smallvec_of_channels()
+-> exr::prelude::SmallVec<[exr::prelude::AnyChannel<exr::prelude::FlatSamples>; 4]> {
+    exr::prelude::SmallVec::new()
+}
+
+/// Checks one header attribute and converts it to the EXR library's types.
+fn exr_attribute(
+    name: &str,
+    value: &str,
+) -> Result<(exr::prelude::Text, exr::prelude::AttributeValue), ImageError> {
+    let bad = |problem: &str| ImageError::Attribute {
+        name: name.to_string(),
+        problem: problem.to_string(),
+    };
+    if name.is_empty() {
+        return Err(bad("the name must not be empty"));
+    }
+    if name.len() > 255 {
+        return Err(bad("the name must be at most 255 bytes long"));
+    }
+    if name.contains('\0') {
+        return Err(bad("the name must not contain a NUL character"));
+    }
+    if exr::meta::header::standard_names::ALL.contains(&name.as_bytes()) {
+        return Err(bad(
+            "the name is a standard OpenEXR attribute; choose another (e.g. prefix it `spindle.`)",
+        ));
+    }
+    // EXR text is one byte per character (Latin-1).
+    let name_text = exr::prelude::Text::new_or_none(name)
+        .ok_or_else(|| bad("the name must use only Latin-1 characters"))?;
+    let value_text = exr::prelude::Text::new_or_none(value)
+        .ok_or_else(|| bad("the value must use only Latin-1 characters"))?;
+    Ok((name_text, exr::prelude::AttributeValue::Text(value_text)))
+}
+
+/// Rewrites the header of a one-part EXR file with its attributes sorted by name. The EXR
+/// library keeps custom attributes in a hash map, so it writes them in an order that changes
+/// from run to run; sorting makes the bytes a function of the image. The header keeps its
+/// length, so the offset table after it stays valid.
+fn sort_exr_header_attributes(bytes: &mut [u8]) -> Result<(), ImageError> {
+    let malformed = |what: &str| ImageError::Exr {
+        path: "(in memory)".into(),
+        problem: format!("unexpected header written by the EXR library: {what}"),
+    };
+    const MULTIPART_OR_DEEP: u32 = 0x1000 | 0x800;
+    if bytes.len() < 8 || bytes[..4] != [0x76, 0x2f, 0x31, 0x01] {
+        return Err(malformed("no magic number"));
+    }
+    let version = u32::from_le_bytes([bytes[4], bytes[5], bytes[6], bytes[7]]);
+    if version & MULTIPART_OR_DEEP != 0 {
+        return Err(malformed("not a single-part flat file"));
+    }
+
+    // Each attribute: name NUL, type NUL, i32 size, value. A lone NUL ends the header.
+    let start = 8;
+    let mut attributes: Vec<&[u8]> = Vec::new();
+    let mut at = start;
+    let nul_after = |from: usize| {
+        bytes
+            .get(from..)
+            .and_then(|rest| rest.iter().position(|&b| b == 0))
+            .map(|i| from + i)
+    };
+    loop {
+        let name_end = nul_after(at).ok_or_else(|| malformed("unterminated attribute name"))?;
+        if name_end == at {
+            break;
+        }
+        let type_end =
+            nul_after(name_end + 1).ok_or_else(|| malformed("unterminated attribute type"))?;
+        let size_bytes = bytes
+            .get(type_end + 1..type_end + 5)
+            .ok_or_else(|| malformed("truncated attribute size"))?;
+        let size = i32::from_le_bytes([size_bytes[0], size_bytes[1], size_bytes[2], size_bytes[3]]);
+        let size = usize::try_from(size).map_err(|_| malformed("negative attribute size"))?;
+        let end = type_end + 5 + size;
+        if end > bytes.len() {
+            return Err(malformed("attribute runs past the end"));
+        }
+        attributes.push(&bytes[at..end]);
+        at = end;
+    }
+    let header_end = at;
+
+    // Attribute names are unique, so sorting the whole records sorts by name.
+    let name_of = |a: &[u8]| a[..a.iter().position(|&b| b == 0).unwrap_or(a.len())].to_vec();
+    attributes.sort_by_key(|a| name_of(a));
+    let sorted: Vec<u8> = attributes.concat();
+    bytes[start..header_end].copy_from_slice(&sorted);
+    Ok(())
+}
+
+fn read_exr_from(bytes: &[u8], path: &str) -> Result<Image, ImageError> {
+    use exr::prelude::{AttributeValue, ReadChannels, ReadLayers};
+
+    let exr_error = |problem: String| ImageError::Exr {
+        path: path.to_string(),
+        problem,
+    };
+    let file = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(Cursor::new(bytes))
+        .map_err(|e| exr_error(e.to_string()))?;
+
+    let layer = &file.layer_data;
+    let (width, height) = (layer.size.width(), layer.size.height());
+    let (Ok(w), Ok(h)) = (u32::try_from(width), u32::try_from(height)) else {
+        return Err(exr_error(format!("image size {width}x{height} is too large")));
+    };
+    let mut image = Image::new(w, h);
+    let pixels = width * height;
+
+    for (prefix, layer_name) in EXR_PREFIXES.iter().zip(LAYER_NAMES) {
+        for (c, name) in RGB.iter().enumerate() {
+            let full = format!("{prefix}{name}");
+            let channel = layer
+                .channel_data
+                .list
+                .iter()
+                .find(|ch| ch.name.eq(&full))
+                .ok_or_else(|| exr_error(format!("no channel `{full}`")))?;
+            let exr::prelude::FlatSamples::F32(samples) = &channel.sample_data else {
+                return Err(exr_error(format!("channel `{full}` is not 32-bit float")));
+            };
+            if samples.len() != pixels {
+                return Err(exr_error(format!("channel `{full}` has the wrong size")));
+            }
+            let dst = match layer_name {
+                "total" => &mut image.total,
+                "surface" => &mut image.surface,
+                _ => &mut image.single_scatter,
+            };
+            for (p, v) in samples.iter().enumerate() {
+                dst[p * 3 + c] = *v;
+            }
+        }
+    }
+
+    for (name, value) in file
+        .attributes
+        .other
+        .iter()
+        .chain(layer.attributes.other.iter())
+    {
+        if let AttributeValue::Text(text) = value {
+            image
+                .attributes
+                .insert(name.chars().collect(), text.chars().collect());
+        }
+    }
+    Ok(image)
+}
+
+/// Writes `bytes` to `path` so that `path` holds either its old content or all of `bytes`:
+/// a temporary file in the same directory (a rename is only atomic within one file system),
+/// flushed to disk, then renamed over `path`.
+fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), ImageError> {
+    let io_error = |p: &Path| {
+        let p = p.display().to_string();
+        move |source| ImageError::Io { path: p, source }
+    };
+    let dir: PathBuf = match path.parent() {
+        Some(parent) if !parent.as_os_str().is_empty() => parent.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".spindle-").suffix(".tmp");
+    // A temporary file is private (0600) by default; an output image is an ordinary file.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o644));
+    }
+    let mut temp = builder
+        .tempfile_in(&dir)
+        .map_err(io_error(&dir))?;
+    temp.write_all(bytes).map_err(io_error(temp.path()))?;
+    temp.as_file().sync_all().map_err(io_error(temp.path()))?;
+    temp.persist(path)
+        .map_err(|e| io_error(path)(e.error))?;
+    // Make the rename itself durable. Not every platform can open a directory for syncing,
+    // and the data is already safe in the file, so a failure here is not an error.
+    if let Ok(d) = std::fs::File::open(&dir) {
+        let _ = d.sync_all();
+    }
+    Ok(())
+}

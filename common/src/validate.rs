@@ -1,0 +1,815 @@
+//! Reading and checking a scene: JSON in, a [`Scene`] whose every value is usable out.
+//!
+//! A scene comes from users and outside tools, so a mistake must come back as one clear line
+//! naming where it is (`objects[0].material.medium.sigma_t[1]: must be >= 0, got -0.5`), never
+//! as a panic, a hang or a NaN deep in the renderer. Parsing reports the JSON path of a
+//! malformed or unknown value ([`serde_path_to_error`]); [`Scene::validate`] then checks the
+//! ranges the types cannot express and names the path of the first bad value, in document
+//! order. Paths use `.` between fields and `[i]` for array elements (also for the components of
+//! an `[x, y, z]` or `[r, g, b]` triple); the whole document is `.`.
+
+use crate::scene::{
+    Camera, Film, Integrator, Light, Material, Medium, Object, Phase, Rgb, Scene, Shape,
+    SingleScatter, Transform, Vec3,
+};
+
+/// The largest image side accepted, in pixels (a sanity cap: 16384² pixels of three RGB f32
+/// layers is already 9 GiB).
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+/// The largest `film.spp` accepted.
+pub const MAX_SPP: u32 = 1 << 20;
+/// The largest icosphere subdivision level: level 10 is 20·4¹⁰ ≈ 21 million triangles.
+pub const MAX_SUBDIVISIONS: u32 = 10;
+/// The largest relative index of refraction accepted (diamond is 2.42; 10 catches typos).
+pub const MAX_ETA: f64 = 10.0;
+/// The largest `integrator.max_depth` accepted.
+pub const MAX_DEPTH: u32 = 64;
+/// The largest `integrator.single_scatter.newton_tolerance` accepted.
+pub const MAX_NEWTON_TOLERANCE: f64 = 1e-2;
+/// The largest `integrator.single_scatter.k` accepted.
+pub const MAX_K: u32 = 1 << 16;
+/// The largest `integrator.single_scatter.samples_per_segment` accepted.
+pub const MAX_SAMPLES_PER_SEGMENT: u32 = 1 << 20;
+
+/// A bad scene: the JSON path of the first bad value and what is wrong with it.
+/// Displays as `"<path>: <problem>"`.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{path}: {problem}")]
+pub struct SceneError {
+    /// JSON path of the bad value, e.g. `objects[0].material.medium.sigma_t[1]`; `.` is the
+    /// whole document.
+    pub path: String,
+    /// What is wrong, in words, with the offending value where it helps.
+    pub problem: String,
+}
+
+impl SceneError {
+    /// An error at `path`.
+    pub fn new(path: impl Into<String>, problem: impl Into<String>) -> SceneError {
+        SceneError {
+            path: path.into(),
+            problem: problem.into(),
+        }
+    }
+}
+
+type Check = Result<(), SceneError>;
+
+impl Scene {
+    /// Parses a scene from JSON text and validates it ([`Scene::validate`]). Unknown fields,
+    /// wrong types, missing required fields and trailing text are rejected with their path.
+    pub fn from_json(text: &str) -> Result<Scene, SceneError> {
+        let mut json = serde_json::Deserializer::from_str(text);
+        let scene: Scene = serde_path_to_error::deserialize(&mut json).map_err(|e| {
+            let problem = e.inner().to_string();
+            SceneError::new(full_path(e.path().to_string(), &problem), problem)
+        })?;
+        json.end()
+            .map_err(|e| SceneError::new(".", e.to_string()))?;
+        scene.validate()?;
+        Ok(scene)
+    }
+
+    /// Checks every value of the scene and reports the first bad one, in document order.
+    /// A scene that passes can be rendered without producing NaN from its inputs.
+    pub fn validate(&self) -> Check {
+        check_camera("camera", &self.camera)?;
+        check_film("film", &self.film)?;
+        for (i, light) in self.lights.iter().enumerate() {
+            check_light(&format!("lights[{i}]"), light)?;
+        }
+        for (i, object) in self.objects.iter().enumerate() {
+            check_object(&format!("objects[{i}]"), object)?;
+        }
+        check_rgb_at_least("background", &self.background, 0.0)?;
+        check_integrator("integrator", &self.integrator)
+    }
+}
+
+/// The path of a parse error. Inside a tagged enum (`shape`, `material`, `lights[i]`) serde
+/// buffers the value, so the tracked path stops at the enum; an unknown field's name is in the
+/// message, so it is put back on the path.
+fn full_path(path: String, problem: &str) -> String {
+    let unknown = problem
+        .strip_prefix("unknown field `")
+        .and_then(|rest| rest.split_once('`'))
+        .map(|(field, _)| field);
+    match unknown {
+        Some(field) if path != field && !path.ends_with(&format!(".{field}")) => {
+            if path == "." {
+                field.to_string()
+            } else {
+                format!("{path}.{field}")
+            }
+        }
+        _ => path,
+    }
+}
+
+fn check_camera(path: &str, camera: &Camera) -> Check {
+    let position = format!("{path}.position");
+    let look_at = format!("{path}.look_at");
+    let up = format!("{path}.up");
+    check_vec3(&position, &camera.position)?;
+    check_vec3(&look_at, &camera.look_at)?;
+    check_vec3(&up, &camera.up)?;
+
+    // The view direction must exist and be representable.
+    let view = sub(camera.look_at, camera.position);
+    if view.iter().any(|x| !x.is_finite()) {
+        return Err(SceneError::new(
+            look_at,
+            format!("is too far from {position}: their difference overflows"),
+        ));
+    }
+    if view == [0.0; 3] {
+        return Err(SceneError::new(
+            look_at,
+            format!("must differ from {position} (the camera needs a view direction)"),
+        ));
+    }
+
+    // `up` picks the camera's roll, so it must be non-zero and not along the view direction.
+    if camera.up == [0.0; 3] {
+        return Err(SceneError::new(up, "must not be the zero vector"));
+    }
+    // sin² of the angle between `up` and the view direction, on copies scaled to O(1) so huge
+    // or tiny coordinates cannot overflow; below (1e-6)² the two are parallel for any
+    // practical purpose and the camera frame would be noise.
+    let (v, u) = (unit_scaled(view), unit_scaled(camera.up));
+    let c = cross(v, u);
+    let sin2 = dot(c, c) / (dot(v, v) * dot(u, u));
+    if !(sin2 > 1e-12) {
+        return Err(SceneError::new(
+            up,
+            format!("must not be parallel to the view direction ({look_at} - {position})"),
+        ));
+    }
+
+    check_open_range(&format!("{path}.fov_y"), camera.fov_y, 0.0, 180.0)
+}
+
+fn check_film(path: &str, film: &Film) -> Check {
+    check_count(&format!("{path}.width"), film.width, 1, MAX_IMAGE_SIDE)?;
+    check_count(&format!("{path}.height"), film.height, 1, MAX_IMAGE_SIDE)?;
+    check_count(&format!("{path}.spp"), film.spp, 1, MAX_SPP)
+}
+
+fn check_light(path: &str, light: &Light) -> Check {
+    match light {
+        Light::Point {
+            position,
+            intensity,
+        } => {
+            check_vec3(&format!("{path}.position"), position)?;
+            check_rgb_at_least(&format!("{path}.intensity"), intensity, 0.0)
+        }
+        Light::Sphere {
+            center,
+            radius,
+            radiance,
+        } => {
+            check_vec3(&format!("{path}.center"), center)?;
+            check_positive(&format!("{path}.radius"), *radius)?;
+            check_rgb_at_least(&format!("{path}.radiance"), radiance, 0.0)
+        }
+    }
+}
+
+fn check_object(path: &str, object: &Object) -> Check {
+    check_shape(&format!("{path}.shape"), &object.shape)?;
+    check_transform(&format!("{path}.transform"), &object.transform)?;
+    check_material(&format!("{path}.material"), &object.material)
+}
+
+fn check_shape(path: &str, shape: &Shape) -> Check {
+    match shape {
+        Shape::Obj { path: file } => {
+            if file.trim().is_empty() {
+                return Err(SceneError::new(
+                    format!("{path}.path"),
+                    "must name an OBJ file (relative to the scene file), got an empty string",
+                ));
+            }
+            if file.contains('\0') {
+                return Err(SceneError::new(
+                    format!("{path}.path"),
+                    "must not contain a NUL character",
+                ));
+            }
+            Ok(())
+        }
+        Shape::Icosphere {
+            radius,
+            subdivisions,
+        } => {
+            check_positive(&format!("{path}.radius"), *radius)?;
+            check_subdivisions(&format!("{path}.subdivisions"), *subdivisions)
+        }
+        Shape::BumpySphere {
+            radius,
+            subdivisions,
+            amplitude,
+            frequency,
+            seed: _,
+        } => {
+            check_positive(&format!("{path}.radius"), *radius)?;
+            check_subdivisions(&format!("{path}.subdivisions"), *subdivisions)?;
+            let amplitude_path = format!("{path}.amplitude");
+            check_finite(&amplitude_path, *amplitude)?;
+            if !(0.0..1.0).contains(amplitude) {
+                return Err(SceneError::new(
+                    amplitude_path,
+                    format!(
+                        "must be in [0, 1) (a fraction of the radius; 1 or more would fold the \
+                         surface through the centre), got {amplitude}"
+                    ),
+                ));
+            }
+            check_at_least(&format!("{path}.frequency"), *frequency, 0.0)
+        }
+    }
+}
+
+fn check_subdivisions(path: &str, subdivisions: u32) -> Check {
+    if subdivisions > MAX_SUBDIVISIONS {
+        return Err(SceneError::new(
+            path,
+            format!(
+                "must be <= {MAX_SUBDIVISIONS} (level {MAX_SUBDIVISIONS} is already 20·4^10 ≈ 21 \
+                 million triangles), got {subdivisions}"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+fn check_transform(path: &str, transform: &Transform) -> Check {
+    let scale = format!("{path}.scale");
+    check_vec3(&scale, &transform.scale)?;
+    for (i, s) in transform.scale.iter().enumerate() {
+        if *s == 0.0 {
+            return Err(SceneError::new(
+                format!("{scale}[{i}]"),
+                "must not be 0 (a zero scale flattens the object and has no inverse)",
+            ));
+        }
+    }
+    check_vec3(&format!("{path}.rotate_deg"), &transform.rotate_deg)?;
+    check_vec3(&format!("{path}.translate"), &transform.translate)
+}
+
+fn check_material(path: &str, material: &Material) -> Check {
+    match material {
+        Material::Dielectric { eta, medium } => {
+            let eta_path = format!("{path}.eta");
+            check_finite(&eta_path, *eta)?;
+            if *eta < 1.0 {
+                return Err(SceneError::new(
+                    eta_path,
+                    format!(
+                        "must be >= 1, got {eta}: eta < 1 (a medium less dense than the air \
+                         around it) is unsupported by the single-scattering method"
+                    ),
+                ));
+            }
+            if *eta > MAX_ETA {
+                return Err(SceneError::new(
+                    eta_path,
+                    format!("must be <= {MAX_ETA}, got {eta}"),
+                ));
+            }
+            check_medium(&format!("{path}.medium"), medium)
+        }
+        Material::Diffuse { reflectance } => {
+            check_rgb_unit(&format!("{path}.reflectance"), reflectance)
+        }
+    }
+}
+
+fn check_medium(path: &str, medium: &Medium) -> Check {
+    check_rgb_at_least(&format!("{path}.sigma_t"), &medium.sigma_t, 0.0)?;
+    check_rgb_unit(&format!("{path}.albedo"), &medium.albedo)?;
+    match medium.phase {
+        Phase::Isotropic => Ok(()),
+        Phase::Hg { g } => check_open_range(&format!("{path}.phase.g"), g, -1.0, 1.0),
+    }
+}
+
+fn check_integrator(path: &str, integrator: &Integrator) -> Check {
+    let max_depth = format!("{path}.max_depth");
+    check_count(&max_depth, integrator.max_depth, 0, MAX_DEPTH)?;
+    if integrator.internal_reflections > integrator.max_depth {
+        return Err(SceneError::new(
+            format!("{path}.internal_reflections"),
+            format!(
+                "must be <= {max_depth} ({}), got {}",
+                integrator.max_depth, integrator.internal_reflections
+            ),
+        ));
+    }
+    check_single_scatter(&format!("{path}.single_scatter"), &integrator.single_scatter)
+}
+
+fn check_single_scatter(path: &str, settings: &SingleScatter) -> Check {
+    check_count(&format!("{path}.k"), settings.k, 1, MAX_K)?;
+    let tolerance = format!("{path}.newton_tolerance");
+    check_finite(&tolerance, settings.newton_tolerance)?;
+    if !(settings.newton_tolerance > 0.0 && settings.newton_tolerance <= MAX_NEWTON_TOLERANCE) {
+        return Err(SceneError::new(
+            tolerance,
+            format!(
+                "must be in (0, {MAX_NEWTON_TOLERANCE}], got {}",
+                settings.newton_tolerance
+            ),
+        ));
+    }
+    check_count(
+        &format!("{path}.samples_per_segment"),
+        settings.samples_per_segment,
+        1,
+        MAX_SAMPLES_PER_SEGMENT,
+    )?;
+    let auto = format!("{path}.auto_tolerance");
+    check_finite(&auto, settings.auto_tolerance)?;
+    if !(0.0..1.0).contains(&settings.auto_tolerance) {
+        return Err(SceneError::new(
+            auto,
+            format!("must be in [0, 1), got {}", settings.auto_tolerance),
+        ));
+    }
+    Ok(())
+}
+
+// ---- Checks of single values -------------------------------------------------------------
+
+fn check_finite(path: &str, x: f64) -> Check {
+    if x.is_finite() {
+        Ok(())
+    } else {
+        Err(SceneError::new(
+            path,
+            format!("must be a finite number, got {x}"),
+        ))
+    }
+}
+
+fn check_vec3(path: &str, v: &Vec3) -> Check {
+    for (i, x) in v.iter().enumerate() {
+        check_finite(&format!("{path}[{i}]"), *x)?;
+    }
+    Ok(())
+}
+
+fn check_at_least(path: &str, x: f64, lo: f64) -> Check {
+    check_finite(path, x)?;
+    if x >= lo {
+        Ok(())
+    } else {
+        Err(SceneError::new(path, format!("must be >= {lo}, got {x}")))
+    }
+}
+
+fn check_positive(path: &str, x: f64) -> Check {
+    check_finite(path, x)?;
+    if x > 0.0 {
+        Ok(())
+    } else {
+        Err(SceneError::new(path, format!("must be > 0, got {x}")))
+    }
+}
+
+/// `x` in the open interval (lo, hi).
+fn check_open_range(path: &str, x: f64, lo: f64, hi: f64) -> Check {
+    check_finite(path, x)?;
+    if lo < x && x < hi {
+        Ok(())
+    } else {
+        Err(SceneError::new(
+            path,
+            format!("must be in ({lo}, {hi}), got {x}"),
+        ))
+    }
+}
+
+fn check_rgb_at_least(path: &str, rgb: &Rgb, lo: f64) -> Check {
+    for (i, x) in rgb.iter().enumerate() {
+        check_at_least(&format!("{path}[{i}]"), *x, lo)?;
+    }
+    Ok(())
+}
+
+/// Every component in [0, 1].
+fn check_rgb_unit(path: &str, rgb: &Rgb) -> Check {
+    for (i, x) in rgb.iter().enumerate() {
+        let component = format!("{path}[{i}]");
+        check_finite(&component, *x)?;
+        if !(0.0..=1.0).contains(x) {
+            return Err(SceneError::new(
+                component,
+                format!("must be in [0, 1], got {x}"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// An integer in [lo, hi].
+fn check_count(path: &str, n: u32, lo: u32, hi: u32) -> Check {
+    if n < lo {
+        Err(SceneError::new(path, format!("must be >= {lo}, got {n}")))
+    } else if n > hi {
+        Err(SceneError::new(path, format!("must be <= {hi}, got {n}")))
+    } else {
+        Ok(())
+    }
+}
+
+fn sub(a: Vec3, b: Vec3) -> Vec3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// `v` divided by its largest absolute component (so that component is ±1); `v` is non-zero.
+fn unit_scaled(v: Vec3) -> Vec3 {
+    let m = v[0].abs().max(v[1].abs()).max(v[2].abs());
+    [v[0] / m, v[1] / m, v[2] / m]
+}
+
+fn dot(a: Vec3, b: Vec3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross(a: Vec3, b: Vec3) -> Vec3 {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{Pruning, ScatterMethod};
+    use serde_json::{Value, json};
+
+    /// A valid scene using every kind of light, shape, material and phase function.
+    fn full_scene() -> Value {
+        json!({
+            "camera": { "position": [0, 1, 5], "look_at": [0, 1, 0], "up": [0, 1, 0], "fov_y": 40 },
+            "film": { "width": 64, "height": 48, "spp": 2, "seed": 7 },
+            "lights": [
+                { "type": "point", "position": [0, 4, -3], "intensity": [10, 10, 10] },
+                { "type": "sphere", "center": [2, 3, -2], "radius": 0.5, "radiance": [5, 5, 5] }
+            ],
+            "objects": [
+                {
+                    "shape": { "type": "obj", "path": "meshes/floor.obj" },
+                    "material": { "type": "diffuse", "reflectance": [0.5, 0.5, 0.5] }
+                },
+                {
+                    "shape": { "type": "icosphere", "radius": 1, "subdivisions": 3 },
+                    "transform": { "scale": [1, 1, 1], "rotate_deg": [0, 30, 0], "translate": [0, 1, 0] },
+                    "material": {
+                        "type": "dielectric", "eta": 1.5,
+                        "medium": { "sigma_t": [0.5, 0.5, 0.5], "albedo": [0.9, 0.9, 0.9],
+                                    "phase": { "type": "hg", "g": 0.3 } }
+                    }
+                },
+                {
+                    "shape": { "type": "bumpy_sphere", "radius": 1, "subdivisions": 4,
+                               "amplitude": 0.1, "frequency": 3, "seed": 2 },
+                    "material": {
+                        "type": "dielectric", "eta": 1.33,
+                        "medium": { "sigma_t": [1, 1, 1], "albedo": [1, 1, 1] }
+                    }
+                }
+            ],
+            "background": [0.1, 0.1, 0.1],
+            "integrator": {
+                "max_depth": 8, "internal_reflections": 2,
+                "single_scatter": { "method": "interval", "k": 2, "newton_tolerance": 1e-8,
+                                    "samples_per_segment": 16, "auto_tolerance": 0.01 }
+            }
+        })
+    }
+
+    /// `full_scene` with the value at JSON pointer `pointer` replaced, parsed and validated.
+    fn with(pointer: &str, value: Value) -> Result<Scene, SceneError> {
+        let mut scene = full_scene();
+        *scene
+            .pointer_mut(pointer)
+            .unwrap_or_else(|| panic!("test pointer {pointer} names no value")) = value;
+        Scene::from_json(&scene.to_string())
+    }
+
+    /// Asserts that setting `pointer` to `value` is rejected at exactly `path`, with a message
+    /// containing `word`.
+    #[track_caller]
+    fn rejects(pointer: &str, value: Value, path: &str, word: &str) {
+        match with(pointer, value.clone()) {
+            Ok(_) => panic!("{pointer} = {value} was accepted"),
+            Err(e) => {
+                assert_eq!(e.path, path, "{pointer} = {value}: {e}");
+                assert!(e.problem.contains(word), "{pointer} = {value}: {e} lacks `{word}`");
+                assert_eq!(e.to_string(), format!("{}: {}", e.path, e.problem));
+            }
+        }
+    }
+
+    /// The same check on a scene built in code (values JSON cannot carry, like NaN).
+    #[track_caller]
+    fn rejects_value(edit: impl FnOnce(&mut Scene), path: &str, word: &str) {
+        let mut scene = Scene::from_json(&full_scene().to_string()).expect("valid base scene");
+        edit(&mut scene);
+        let e = scene.validate().expect_err("edited scene was accepted");
+        assert_eq!(e.path, path, "{e}");
+        assert!(e.problem.contains(word), "{e} lacks `{word}`");
+    }
+
+    #[test]
+    fn full_scene_is_valid() {
+        let scene = Scene::from_json(&full_scene().to_string()).expect("valid");
+        assert_eq!(scene.lights.len(), 2);
+        assert_eq!(scene.objects.len(), 3);
+        assert_eq!(
+            scene.objects[1].material,
+            Material::Dielectric {
+                eta: 1.5,
+                medium: Medium {
+                    sigma_t: [0.5; 3],
+                    albedo: [0.9; 3],
+                    phase: Phase::Hg { g: 0.3 }
+                }
+            }
+        );
+    }
+
+    #[test]
+    fn minimal_scene_gets_the_documented_defaults() {
+        let text = r#"{
+            "camera": { "position": [0, 0, 3], "look_at": [0, 0, 0], "fov_y": 45 },
+            "film": { "width": 4, "height": 3 },
+            "objects": [ {
+                "shape": { "type": "bumpy_sphere", "radius": 1, "subdivisions": 1,
+                           "amplitude": 0, "frequency": 0 },
+                "material": { "type": "dielectric", "eta": 1,
+                              "medium": { "sigma_t": [0, 0, 0], "albedo": [0, 0, 0] } }
+            } ]
+        }"#;
+        let scene = Scene::from_json(text).expect("valid");
+        assert_eq!(scene.camera.up, [0.0, 1.0, 0.0]);
+        assert_eq!((scene.film.spp, scene.film.seed), (4, 0));
+        assert!(scene.lights.is_empty());
+        assert_eq!(scene.background, [0.0; 3]);
+        let object = &scene.objects[0];
+        assert_eq!(object.transform.scale, [1.0; 3]);
+        assert_eq!(object.transform.rotate_deg, [0.0; 3]);
+        assert_eq!(object.transform.translate, [0.0; 3]);
+        let Shape::BumpySphere { seed, .. } = object.shape else {
+            panic!("shape kind changed")
+        };
+        assert_eq!(seed, 0);
+        let Material::Dielectric { medium, .. } = &object.material else {
+            panic!("material kind changed")
+        };
+        assert_eq!(medium.phase, Phase::Isotropic);
+        let integrator = &scene.integrator;
+        assert_eq!((integrator.max_depth, integrator.internal_reflections), (8, 2));
+        let s = &integrator.single_scatter;
+        assert_eq!(s.method, ScatterMethod::Auto);
+        assert_eq!((s.k, s.jitter, s.samples_per_segment), (1, false, 64));
+        assert_eq!((s.newton_tolerance, s.auto_tolerance), (1e-10, 0.0));
+        assert_eq!(
+            s.pruning,
+            Pruning {
+                spindle: true,
+                cone: true
+            }
+        );
+    }
+
+    #[test]
+    fn unknown_fields_are_rejected_with_their_path() {
+        let mut scene = full_scene();
+        scene["camera"]["fov_x"] = json!(40);
+        let e = Scene::from_json(&scene.to_string()).unwrap_err();
+        assert_eq!(e.path, "camera.fov_x", "{e}");
+        assert!(e.problem.contains("unknown field `fov_x`"), "{e}");
+
+        let mut scene = full_scene();
+        scene["integrator"]["single_scatter"]["pruning"] = json!({ "spindle": true, "cones": false });
+        let e = Scene::from_json(&scene.to_string()).unwrap_err();
+        assert_eq!(e.path, "integrator.single_scatter.pruning.cones", "{e}");
+        assert!(e.problem.contains("unknown field"), "{e}");
+
+        let mut scene = full_scene();
+        scene["colour"] = json!([1, 1, 1]);
+        let e = Scene::from_json(&scene.to_string()).unwrap_err();
+        assert_eq!(e.path, "colour", "{e}");
+
+        // Inside a tagged enum (shape, material, light) the path reaches the enum value.
+        let mut scene = full_scene();
+        scene["objects"][1]["shape"]["e"] = json!(3);
+        let e = Scene::from_json(&scene.to_string()).unwrap_err();
+        assert_eq!(e.path, "objects[1].shape.e", "{e}");
+        let mut scene = full_scene();
+        scene["objects"][1]["shape"]["segments"] = json!(3);
+        let e = Scene::from_json(&scene.to_string()).unwrap_err();
+        assert_eq!(e.path, "objects[1].shape.segments", "{e}");
+        assert!(e.problem.contains("unknown field `segments`"), "{e}");
+        let mut scene = full_scene();
+        scene["lights"][1]["intensity"] = json!([1, 1, 1]);
+        let e = Scene::from_json(&scene.to_string()).unwrap_err();
+        assert_eq!(e.path, "lights[1].intensity", "{e}");
+        let mut scene = full_scene();
+        scene["objects"][1]["material"]["medium"]["phase"]["k"] = json!(0.1);
+        let e = Scene::from_json(&scene.to_string()).unwrap_err();
+        assert!(e.path.starts_with("objects[1].material"), "{e}");
+        assert!(e.path.ends_with(".k"), "{e}");
+
+        let mut scene = full_scene();
+        scene["objects"][0]["shape"]["type"] = json!("cube");
+        let e = Scene::from_json(&scene.to_string()).unwrap_err();
+        assert_eq!(e.path, "objects[0].shape.type", "{e}");
+        assert!(e.problem.contains("unknown variant `cube`"), "{e}");
+    }
+
+    #[test]
+    fn malformed_json_is_rejected_with_its_path() {
+        rejects("/film/width", json!(-1), "film.width", "invalid value");
+        rejects("/film/width", json!("64"), "film.width", "invalid type");
+        rejects("/camera/position/2", json!("far"), "camera.position[2]", "invalid type");
+        rejects("/integrator/single_scatter/method", json!("magic"), "integrator.single_scatter.method", "unknown variant");
+        let mut scene = full_scene();
+        scene["camera"].as_object_mut().unwrap().remove("fov_y");
+        let e = Scene::from_json(&scene.to_string()).unwrap_err();
+        assert_eq!(e.path, "camera", "{e}");
+        assert!(e.problem.contains("missing field `fov_y`"), "{e}");
+        let e = Scene::from_json(&format!("{} {{}}", full_scene())).unwrap_err();
+        assert_eq!(e.path, ".", "{e}");
+        assert!(e.problem.contains("trailing"), "{e}");
+        let e = Scene::from_json("{ \"camera\": ").unwrap_err();
+        assert!(e.problem.contains("EOF"), "{e}");
+        // Numbers beyond f64 are not turned into infinity.
+        let text = full_scene().to_string().replace("\"fov_y\":40", "\"fov_y\":1e400");
+        let e = Scene::from_json(&text).unwrap_err();
+        assert_eq!(e.path, "camera.fov_y", "{e}");
+        assert!(e.problem.contains("out of range"), "{e}");
+    }
+
+    #[test]
+    fn non_finite_numbers_are_rejected_everywhere() {
+        for (edit, path) in [
+            (Box::new(|s: &mut Scene| s.camera.position[1] = f64::NAN) as Box<dyn FnOnce(&mut Scene)>, "camera.position[1]"),
+            (Box::new(|s: &mut Scene| s.camera.up[0] = f64::INFINITY), "camera.up[0]"),
+            (Box::new(|s: &mut Scene| s.camera.fov_y = f64::NAN), "camera.fov_y"),
+            (Box::new(|s: &mut Scene| s.background[2] = f64::INFINITY), "background[2]"),
+            (Box::new(|s: &mut Scene| s.objects[1].transform.translate[0] = f64::NEG_INFINITY), "objects[1].transform.translate[0]"),
+            (Box::new(|s: &mut Scene| s.objects[1].transform.rotate_deg[2] = f64::NAN), "objects[1].transform.rotate_deg[2]"),
+            (Box::new(|s: &mut Scene| s.integrator.single_scatter.newton_tolerance = f64::NAN), "integrator.single_scatter.newton_tolerance"),
+        ] {
+            rejects_value(edit, path, "finite");
+        }
+        rejects_value(
+            |s| {
+                s.lights[1] = Light::Sphere { center: [0.0; 3], radius: f64::NAN, radiance: [1.0; 3] }
+            },
+            "lights[1].radius",
+            "finite",
+        );
+        rejects_value(
+            |s| {
+                s.objects[1].material = Material::Dielectric {
+                    eta: f64::INFINITY,
+                    medium: Medium { sigma_t: [1.0; 3], albedo: [0.5; 3], phase: Phase::Isotropic },
+                }
+            },
+            "objects[1].material.eta",
+            "finite",
+        );
+        rejects_value(
+            |s| {
+                s.objects[1].material = Material::Dielectric {
+                    eta: 1.5,
+                    medium: Medium { sigma_t: [1.0, f64::NAN, 1.0], albedo: [0.5; 3], phase: Phase::Isotropic },
+                }
+            },
+            "objects[1].material.medium.sigma_t[1]",
+            "finite",
+        );
+        rejects_value(
+            |s| {
+                s.objects[1].material = Material::Dielectric {
+                    eta: 1.5,
+                    medium: Medium { sigma_t: [1.0; 3], albedo: [0.5; 3], phase: Phase::Hg { g: f64::NAN } },
+                }
+            },
+            "objects[1].material.medium.phase.g",
+            "finite",
+        );
+    }
+
+    #[test]
+    fn camera_values_are_checked() {
+        rejects("/camera/fov_y", json!(0), "camera.fov_y", "(0, 180)");
+        rejects("/camera/fov_y", json!(180), "camera.fov_y", "(0, 180)");
+        rejects("/camera/fov_y", json!(-10), "camera.fov_y", "(0, 180)");
+        rejects("/camera/look_at", json!([0, 1, 5]), "camera.look_at", "differ");
+        rejects_value(
+            |s| {
+                s.camera.position = [0.0, 1.0, 1e308];
+                s.camera.look_at = [0.0, 1.0, -1e308];
+            },
+            "camera.look_at",
+            "overflows",
+        );
+        rejects("/camera/up", json!([0, 0, 0]), "camera.up", "zero");
+        rejects("/camera/up", json!([0, 0, 1]), "camera.up", "parallel");
+        rejects("/camera/up", json!([0, 0, -3]), "camera.up", "parallel");
+        // Far from parallel but huge or tiny: fine.
+        assert!(with("/camera/up", json!([0, 1e300, 1e300])).is_ok());
+        assert!(with("/camera/up", json!([1e-300, 0, 0])).is_ok());
+    }
+
+    #[test]
+    fn film_values_are_checked() {
+        rejects("/film/width", json!(0), "film.width", ">= 1");
+        rejects("/film/height", json!(0), "film.height", ">= 1");
+        rejects("/film/width", json!(16385), "film.width", "<= 16384");
+        assert!(with("/film/height", json!(16384)).is_ok());
+        rejects("/film/spp", json!(0), "film.spp", ">= 1");
+    }
+
+    #[test]
+    fn light_values_are_checked() {
+        rejects("/lights/0/intensity/1", json!(-1), "lights[0].intensity[1]", ">= 0");
+        rejects("/lights/1/radiance/0", json!(-0.5), "lights[1].radiance[0]", ">= 0");
+        rejects("/lights/1/radius", json!(0), "lights[1].radius", "> 0");
+        rejects("/lights/1/radius", json!(-1), "lights[1].radius", "> 0");
+        assert!(with("/lights/0/intensity", json!([0, 0, 0])).is_ok());
+    }
+
+    #[test]
+    fn shape_values_are_checked() {
+        rejects("/objects/0/shape/path", json!(""), "objects[0].shape.path", "empty");
+        rejects("/objects/1/shape/radius", json!(0), "objects[1].shape.radius", "> 0");
+        rejects("/objects/1/shape/subdivisions", json!(11), "objects[1].shape.subdivisions", "21 million");
+        assert!(with("/objects/1/shape/subdivisions", json!(10)).is_ok());
+        rejects("/objects/2/shape/radius", json!(-2), "objects[2].shape.radius", "> 0");
+        rejects("/objects/2/shape/subdivisions", json!(12), "objects[2].shape.subdivisions", "<= 10");
+        rejects("/objects/2/shape/amplitude", json!(1), "objects[2].shape.amplitude", "[0, 1)");
+        rejects("/objects/2/shape/amplitude", json!(-0.1), "objects[2].shape.amplitude", "[0, 1)");
+        rejects("/objects/2/shape/frequency", json!(-1), "objects[2].shape.frequency", ">= 0");
+    }
+
+    #[test]
+    fn transform_values_are_checked() {
+        rejects("/objects/1/transform/scale/2", json!(0), "objects[1].transform.scale[2]", "not be 0");
+        // A negative scale mirrors the object; that is allowed.
+        assert!(with("/objects/1/transform/scale/0", json!(-1)).is_ok());
+    }
+
+    #[test]
+    fn material_values_are_checked() {
+        rejects("/objects/1/material/eta", json!(0.9), "objects[1].material.eta", "unsupported");
+        rejects("/objects/1/material/eta", json!(10.5), "objects[1].material.eta", "<= 10");
+        assert!(with("/objects/1/material/eta", json!(1)).is_ok());
+        rejects("/objects/1/material/medium/sigma_t/1", json!(-0.5), "objects[1].material.medium.sigma_t[1]", ">= 0");
+        rejects("/objects/1/material/medium/albedo/2", json!(1.01), "objects[1].material.medium.albedo[2]", "[0, 1]");
+        rejects("/objects/1/material/medium/albedo/0", json!(-0.01), "objects[1].material.medium.albedo[0]", "[0, 1]");
+        rejects("/objects/1/material/medium/phase/g", json!(1), "objects[1].material.medium.phase.g", "(-1, 1)");
+        rejects("/objects/1/material/medium/phase/g", json!(-1), "objects[1].material.medium.phase.g", "(-1, 1)");
+        rejects("/objects/0/material/reflectance/1", json!(1.5), "objects[0].material.reflectance[1]", "[0, 1]");
+        rejects("/objects/0/material/reflectance/0", json!(-0.1), "objects[0].material.reflectance[0]", "[0, 1]");
+    }
+
+    #[test]
+    fn background_is_checked() {
+        rejects("/background/1", json!(-0.1), "background[1]", ">= 0");
+    }
+
+    #[test]
+    fn integrator_values_are_checked() {
+        rejects("/integrator/max_depth", json!(65), "integrator.max_depth", "<= 64");
+        rejects("/integrator/internal_reflections", json!(9), "integrator.internal_reflections", "max_depth");
+        assert!(with("/integrator/internal_reflections", json!(8)).is_ok());
+        let ss = "/integrator/single_scatter";
+        rejects(&format!("{ss}/k"), json!(0), "integrator.single_scatter.k", ">= 1");
+        rejects(&format!("{ss}/newton_tolerance"), json!(0), "integrator.single_scatter.newton_tolerance", "(0, 0.01]");
+        rejects(&format!("{ss}/newton_tolerance"), json!(0.02), "integrator.single_scatter.newton_tolerance", "(0, 0.01]");
+        assert!(with(&format!("{ss}/newton_tolerance"), json!(0.01)).is_ok());
+        rejects(&format!("{ss}/samples_per_segment"), json!(0), "integrator.single_scatter.samples_per_segment", ">= 1");
+        rejects(&format!("{ss}/auto_tolerance"), json!(1), "integrator.single_scatter.auto_tolerance", "[0, 1)");
+        rejects(&format!("{ss}/auto_tolerance"), json!(-0.1), "integrator.single_scatter.auto_tolerance", "[0, 1)");
+    }
+
+    #[test]
+    fn the_first_bad_value_in_document_order_is_named() {
+        let mut scene = full_scene();
+        scene["film"]["spp"] = json!(0);
+        scene["objects"][2]["shape"]["radius"] = json!(0);
+        let e = Scene::from_json(&scene.to_string()).unwrap_err();
+        assert_eq!(e.path, "film.spp");
+    }
+}
