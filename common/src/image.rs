@@ -163,9 +163,11 @@ impl Image {
         let pixels = self.width as usize * self.height as usize;
         (0..pixels)
             .filter(|&p| {
-                self.layers()
-                    .iter()
-                    .any(|layer| layer.get(p * 3..p * 3 + 3).is_some_and(|s| s.iter().any(|v| !v.is_finite())))
+                self.layers().iter().any(|layer| {
+                    layer
+                        .get(p * 3..p * 3 + 3)
+                        .is_some_and(|s| s.iter().any(|v| !v.is_finite()))
+                })
             })
             .count()
     }
@@ -441,7 +443,9 @@ fn read_exr_from(bytes: &[u8], path: &str) -> Result<Image, ImageError> {
     let layer = &file.layer_data;
     let (width, height) = (layer.size.width(), layer.size.height());
     let (Ok(w), Ok(h)) = (u32::try_from(width), u32::try_from(height)) else {
-        return Err(exr_error(format!("image size {width}x{height} is too large")));
+        return Err(exr_error(format!(
+            "image size {width}x{height} is too large"
+        )));
     };
     let mut image = Image::new(w, h);
     let pixels = width * height;
@@ -507,13 +511,10 @@ fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), ImageError> {
         use std::os::unix::fs::PermissionsExt;
         builder.permissions(std::fs::Permissions::from_mode(0o644));
     }
-    let mut temp = builder
-        .tempfile_in(&dir)
-        .map_err(io_error(&dir))?;
+    let mut temp = builder.tempfile_in(&dir).map_err(io_error(&dir))?;
     temp.write_all(bytes).map_err(io_error(temp.path()))?;
     temp.as_file().sync_all().map_err(io_error(temp.path()))?;
-    temp.persist(path)
-        .map_err(|e| io_error(path)(e.error))?;
+    temp.persist(path).map_err(|e| io_error(path)(e.error))?;
     // Make the rename itself durable. Not every platform can open a directory for syncing,
     // and the data is already safe in the file, so a failure here is not an error.
     if let Ok(d) = std::fs::File::open(&dir) {
@@ -585,7 +586,11 @@ mod tests {
                     let inside = (2..5).contains(&x) && (1..3).contains(&y);
                     for c in 0..3 {
                         let expected = if inside { value(l, x, y, c) } else { 0.0 };
-                        assert_eq!(layer[((y * 7 + x) * 3) as usize + c], expected, "layer {l} ({x},{y}) c{c}");
+                        assert_eq!(
+                            layer[((y * 7 + x) * 3) as usize + c],
+                            expected,
+                            "layer {l} ({x},{y}) c{c}"
+                        );
                     }
                 }
             }
@@ -622,14 +627,19 @@ mod tests {
             rect(0, u32::MAX - 1, 1, 4),
         ] {
             let err = image.insert_tile(&TilePixels::black(r)).unwrap_err();
-            assert!(matches!(err, ImageError::TileOutside { .. }), "{r:?}: {err}");
+            assert!(
+                matches!(err, ImageError::TileOutside { .. }),
+                "{r:?}: {err}"
+            );
             assert!(err.to_string().contains("outside"), "{err}");
         }
-        let err = image.insert_tile(&TilePixels::black(rect(3, 3, 0, 2))).unwrap_err();
+        let err = image
+            .insert_tile(&TilePixels::black(rect(3, 3, 0, 2)))
+            .unwrap_err();
         assert!(matches!(err, ImageError::EmptyTile { .. }), "{err}");
 
         // Wrong buffer lengths, one layer at a time.
-        for layer in 0..3 {
+        for (layer, layer_name) in LAYER_NAMES.into_iter().enumerate() {
             for delta in [-3i64, -1, 1, 3] {
                 let mut tile = TilePixels::black(rect(4, 2, 4, 3));
                 let buffer = match layer {
@@ -647,7 +657,10 @@ mod tests {
                 else {
                     panic!("layer {layer} delta {delta}: {err}")
                 };
-                assert_eq!((name, expected, actual), (LAYER_NAMES[layer], 36, (36 + delta) as usize));
+                assert_eq!(
+                    (name, expected, actual),
+                    (layer_name, 36, (36 + delta) as usize)
+                );
             }
         }
         assert_eq!(image, before);
@@ -667,16 +680,29 @@ mod tests {
         image.single_scatter[8] = f32::MAX;
         image.single_scatter[9] = 1.0e-3;
         image.attributes.insert("spindle.spp".into(), "64".into());
-        image.attributes.insert("spindle.scene".into(), "glass-sphere.json".into());
-        image.attributes.insert("spindle.method".into(), "interval (Holzschuch 2015)".into());
-        image.attributes.insert("spindle.empty".into(), String::new());
-        image.attributes.insert("spindle.latin1".into(), "café".into());
-        image.attributes.insert("spindle.json".into(), r#"{"a": [1, 2]}"#.into());
+        image
+            .attributes
+            .insert("spindle.scene".into(), "glass-sphere.json".into());
+        image
+            .attributes
+            .insert("spindle.method".into(), "interval (Holzschuch 2015)".into());
+        image
+            .attributes
+            .insert("spindle.empty".into(), String::new());
+        image
+            .attributes
+            .insert("spindle.latin1".into(), "café".into());
+        image
+            .attributes
+            .insert("spindle.json".into(), r#"{"a": [1, 2]}"#.into());
 
         image.write_exr(&path).expect("written");
         let back = read_exr(&path).expect("read");
         assert_eq!((back.width, back.height), (19, 11));
-        for (name, (a, b)) in LAYER_NAMES.iter().zip(image.layers().into_iter().zip(back.layers())) {
+        for (name, (a, b)) in LAYER_NAMES
+            .iter()
+            .zip(image.layers().into_iter().zip(back.layers()))
+        {
             assert_eq!(bits(a), bits(b), "layer {name}");
         }
         assert_eq!(back.attributes, image.attributes);
@@ -688,11 +714,16 @@ mod tests {
     fn the_same_image_always_gives_the_same_bytes() {
         let mut image = patterned(33, 17);
         for i in 0..12 {
-            image.attributes.insert(format!("spindle.attr{i}"), format!("value {i}"));
+            image
+                .attributes
+                .insert(format!("spindle.attr{i}"), format!("value {i}"));
         }
         let first = image.to_exr_bytes().unwrap();
         for _ in 0..5 {
-            assert!(image.to_exr_bytes().unwrap() == first, "EXR bytes differ between writes");
+            assert!(
+                image.to_exr_bytes().unwrap() == first,
+                "EXR bytes differ between writes"
+            );
         }
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("a.exr");
@@ -706,12 +737,33 @@ mod tests {
         let header = &meta.headers[0];
         assert_eq!(header.compression, exr::prelude::Compression::ZIP16);
         assert_eq!(header.blocks, exr::meta::BlockDescription::ScanLines);
-        let names: Vec<String> = header.channels.list.iter().map(|c| c.name.to_string()).collect();
+        let names: Vec<String> = header
+            .channels
+            .list
+            .iter()
+            .map(|c| c.name.to_string())
+            .collect();
         assert_eq!(
             names,
-            ["B", "G", "R", "single_scatter.B", "single_scatter.G", "single_scatter.R", "surface.B", "surface.G", "surface.R"]
+            [
+                "B",
+                "G",
+                "R",
+                "single_scatter.B",
+                "single_scatter.G",
+                "single_scatter.R",
+                "surface.B",
+                "surface.G",
+                "surface.R"
+            ]
         );
-        assert!(header.channels.list.iter().all(|c| c.sample_type == exr::prelude::SampleType::F32));
+        assert!(
+            header
+                .channels
+                .list
+                .iter()
+                .all(|c| c.sample_type == exr::prelude::SampleType::F32)
+        );
     }
 
     #[test]
@@ -726,7 +778,10 @@ mod tests {
             let mut image = Image::new(2, 2);
             image.attributes.insert(name.into(), value.into());
             let err = image.to_exr_bytes().unwrap_err();
-            assert!(matches!(&err, ImageError::Attribute { name: n, .. } if n == name), "{err}");
+            assert!(
+                matches!(&err, ImageError::Attribute { name: n, .. } if n == name),
+                "{err}"
+            );
             assert!(err.to_string().contains(word), "{err}");
         }
     }
@@ -757,19 +812,30 @@ mod tests {
         image.surface.fill(9.0); // only `total` is previewed
         image.write_png_preview(&path).expect("written");
 
-        let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&path).unwrap()));
+        let decoder =
+            png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&path).unwrap()));
         let mut reader = decoder.read_info().unwrap();
         let mut buffer = vec![0; reader.output_buffer_size().unwrap()];
         let info = reader.next_frame(&mut buffer).unwrap();
         assert_eq!((info.width, info.height), (4, 2));
-        assert_eq!((info.color_type, info.bit_depth), (png::ColorType::Rgb, png::BitDepth::Eight));
+        assert_eq!(
+            (info.color_type, info.bit_depth),
+            (png::ColorType::Rgb, png::BitDepth::Eight)
+        );
         let pixels = &buffer[..info.buffer_size()];
         for (i, (linear, srgb)) in cases.iter().enumerate() {
             let expected_green = if i == 0 { 255 } else { *srgb };
-            assert_eq!(pixels[i * 3..i * 3 + 3], [*srgb, expected_green, *srgb], "pixel {i}: {linear}");
+            assert_eq!(
+                pixels[i * 3..i * 3 + 3],
+                [*srgb, expected_green, *srgb],
+                "pixel {i}: {linear}"
+            );
         }
         // Nothing but the preview is left in the directory.
-        let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+        let names: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
         assert_eq!(names, ["preview.png"]);
     }
 
@@ -781,23 +847,48 @@ mod tests {
         let image = patterned(3, 2);
         image.write_exr(&path).unwrap();
         assert_eq!(read_exr(&path).unwrap(), image);
-        let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+        let names: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
         assert_eq!(names, ["out.exr"]);
 
         let missing = dir.path().join("no-such-dir").join("out.exr");
-        assert!(matches!(image.write_exr(&missing), Err(ImageError::Io { .. })));
-        assert!(matches!(image.write_png_preview(&missing), Err(ImageError::Io { .. })));
+        assert!(matches!(
+            image.write_exr(&missing),
+            Err(ImageError::Io { .. })
+        ));
+        assert!(matches!(
+            image.write_png_preview(&missing),
+            Err(ImageError::Io { .. })
+        ));
         assert!(matches!(read_exr(&missing), Err(ImageError::Io { .. })));
         std::fs::write(&path, b"not an exr file").unwrap();
         assert!(matches!(read_exr(&path), Err(ImageError::Exr { .. })));
 
         let empty = Image::new(0, 4);
-        assert!(matches!(empty.write_exr(&path), Err(ImageError::EmptyImage { .. })));
-        assert!(matches!(empty.write_png_preview(&path), Err(ImageError::EmptyImage { .. })));
+        assert!(matches!(
+            empty.write_exr(&path),
+            Err(ImageError::EmptyImage { .. })
+        ));
+        assert!(matches!(
+            empty.write_png_preview(&path),
+            Err(ImageError::EmptyImage { .. })
+        ));
         let mut broken = patterned(3, 2);
         broken.surface.pop();
         let err = broken.write_exr(&path).unwrap_err();
-        assert!(matches!(err, ImageError::BufferLength { layer: "surface", expected: 18, actual: 17 }), "{err}");
+        assert!(
+            matches!(
+                err,
+                ImageError::BufferLength {
+                    layer: "surface",
+                    expected: 18,
+                    actual: 17
+                }
+            ),
+            "{err}"
+        );
     }
 
     #[test]
@@ -809,10 +900,17 @@ mod tests {
         image.single_scatter[59] = f32::NEG_INFINITY; // pixel 19, the last
         image.surface[30] = f32::MAX; // finite
         assert_eq!(image.non_finite_count(), 2);
-        let mut tile = TilePixels::black(TileRect { x: 0, y: 0, width: 1, height: 1 });
+        let mut tile = TilePixels::black(TileRect {
+            x: 0,
+            y: 0,
+            width: 1,
+            height: 1,
+        });
         tile.total[0] = f32::NAN;
         tile.stats = RenderStats::default();
-        image.insert_tile(&tile).expect("NaN pixels are inserted as they are");
+        image
+            .insert_tile(&tile)
+            .expect("NaN pixels are inserted as they are");
         assert!(image.total[0].is_nan());
         assert_eq!(image.non_finite_count(), 3);
     }

@@ -139,7 +139,7 @@ fn check_camera(path: &str, camera: &Camera) -> Check {
     let (v, u) = (unit_scaled(view), unit_scaled(camera.up));
     let c = cross(v, u);
     let sin2 = dot(c, c) / (dot(v, v) * dot(u, u));
-    if !(sin2 > 1e-12) {
+    if sin2 <= 1e-12 {
         return Err(SceneError::new(
             up,
             format!("must not be parallel to the view direction ({look_at} - {position})"),
@@ -308,7 +308,10 @@ fn check_integrator(path: &str, integrator: &Integrator) -> Check {
             ),
         ));
     }
-    check_single_scatter(&format!("{path}.single_scatter"), &integrator.single_scatter)
+    check_single_scatter(
+        &format!("{path}.single_scatter"),
+        &integrator.single_scatter,
+    )
 }
 
 fn check_single_scatter(path: &str, settings: &SingleScatter) -> Check {
@@ -511,7 +514,10 @@ mod tests {
             Ok(_) => panic!("{pointer} = {value} was accepted"),
             Err(e) => {
                 assert_eq!(e.path, path, "{pointer} = {value}: {e}");
-                assert!(e.problem.contains(word), "{pointer} = {value}: {e} lacks `{word}`");
+                assert!(
+                    e.problem.contains(word),
+                    "{pointer} = {value}: {e} lacks `{word}`"
+                );
                 assert_eq!(e.to_string(), format!("{}: {}", e.path, e.problem));
             }
         }
@@ -575,7 +581,10 @@ mod tests {
         };
         assert_eq!(medium.phase, Phase::Isotropic);
         let integrator = &scene.integrator;
-        assert_eq!((integrator.max_depth, integrator.internal_reflections), (8, 2));
+        assert_eq!(
+            (integrator.max_depth, integrator.internal_reflections),
+            (8, 2)
+        );
         let s = &integrator.single_scatter;
         assert_eq!(s.method, ScatterMethod::Auto);
         assert_eq!((s.k, s.jitter, s.samples_per_segment), (1, false, 64));
@@ -598,7 +607,8 @@ mod tests {
         assert!(e.problem.contains("unknown field `fov_x`"), "{e}");
 
         let mut scene = full_scene();
-        scene["integrator"]["single_scatter"]["pruning"] = json!({ "spindle": true, "cones": false });
+        scene["integrator"]["single_scatter"]["pruning"] =
+            json!({ "spindle": true, "cones": false });
         let e = Scene::from_json(&scene.to_string()).unwrap_err();
         assert_eq!(e.path, "integrator.single_scatter.pruning.cones", "{e}");
         assert!(e.problem.contains("unknown field"), "{e}");
@@ -639,8 +649,18 @@ mod tests {
     fn malformed_json_is_rejected_with_its_path() {
         rejects("/film/width", json!(-1), "film.width", "invalid value");
         rejects("/film/width", json!("64"), "film.width", "invalid type");
-        rejects("/camera/position/2", json!("far"), "camera.position[2]", "invalid type");
-        rejects("/integrator/single_scatter/method", json!("magic"), "integrator.single_scatter.method", "unknown variant");
+        rejects(
+            "/camera/position/2",
+            json!("far"),
+            "camera.position[2]",
+            "invalid type",
+        );
+        rejects(
+            "/integrator/single_scatter/method",
+            json!("magic"),
+            "integrator.single_scatter.method",
+            "unknown variant",
+        );
         let mut scene = full_scene();
         scene["camera"].as_object_mut().unwrap().remove("fov_y");
         let e = Scene::from_json(&scene.to_string()).unwrap_err();
@@ -652,7 +672,9 @@ mod tests {
         let e = Scene::from_json("{ \"camera\": ").unwrap_err();
         assert!(e.problem.contains("EOF"), "{e}");
         // Numbers beyond f64 are not turned into infinity.
-        let text = full_scene().to_string().replace("\"fov_y\":40", "\"fov_y\":1e400");
+        let text = full_scene()
+            .to_string()
+            .replace("\"fov_y\":40", "\"fov_y\":1e400");
         let e = Scene::from_json(&text).unwrap_err();
         assert_eq!(e.path, "camera.fov_y", "{e}");
         assert!(e.problem.contains("out of range"), "{e}");
@@ -661,19 +683,45 @@ mod tests {
     #[test]
     fn non_finite_numbers_are_rejected_everywhere() {
         for (edit, path) in [
-            (Box::new(|s: &mut Scene| s.camera.position[1] = f64::NAN) as Box<dyn FnOnce(&mut Scene)>, "camera.position[1]"),
-            (Box::new(|s: &mut Scene| s.camera.up[0] = f64::INFINITY), "camera.up[0]"),
-            (Box::new(|s: &mut Scene| s.camera.fov_y = f64::NAN), "camera.fov_y"),
-            (Box::new(|s: &mut Scene| s.background[2] = f64::INFINITY), "background[2]"),
-            (Box::new(|s: &mut Scene| s.objects[1].transform.translate[0] = f64::NEG_INFINITY), "objects[1].transform.translate[0]"),
-            (Box::new(|s: &mut Scene| s.objects[1].transform.rotate_deg[2] = f64::NAN), "objects[1].transform.rotate_deg[2]"),
-            (Box::new(|s: &mut Scene| s.integrator.single_scatter.newton_tolerance = f64::NAN), "integrator.single_scatter.newton_tolerance"),
+            (
+                Box::new(|s: &mut Scene| s.camera.position[1] = f64::NAN)
+                    as Box<dyn FnOnce(&mut Scene)>,
+                "camera.position[1]",
+            ),
+            (
+                Box::new(|s: &mut Scene| s.camera.up[0] = f64::INFINITY),
+                "camera.up[0]",
+            ),
+            (
+                Box::new(|s: &mut Scene| s.camera.fov_y = f64::NAN),
+                "camera.fov_y",
+            ),
+            (
+                Box::new(|s: &mut Scene| s.background[2] = f64::INFINITY),
+                "background[2]",
+            ),
+            (
+                Box::new(|s: &mut Scene| s.objects[1].transform.translate[0] = f64::NEG_INFINITY),
+                "objects[1].transform.translate[0]",
+            ),
+            (
+                Box::new(|s: &mut Scene| s.objects[1].transform.rotate_deg[2] = f64::NAN),
+                "objects[1].transform.rotate_deg[2]",
+            ),
+            (
+                Box::new(|s: &mut Scene| s.integrator.single_scatter.newton_tolerance = f64::NAN),
+                "integrator.single_scatter.newton_tolerance",
+            ),
         ] {
             rejects_value(edit, path, "finite");
         }
         rejects_value(
             |s| {
-                s.lights[1] = Light::Sphere { center: [0.0; 3], radius: f64::NAN, radiance: [1.0; 3] }
+                s.lights[1] = Light::Sphere {
+                    center: [0.0; 3],
+                    radius: f64::NAN,
+                    radiance: [1.0; 3],
+                }
             },
             "lights[1].radius",
             "finite",
@@ -682,7 +730,11 @@ mod tests {
             |s| {
                 s.objects[1].material = Material::Dielectric {
                     eta: f64::INFINITY,
-                    medium: Medium { sigma_t: [1.0; 3], albedo: [0.5; 3], phase: Phase::Isotropic },
+                    medium: Medium {
+                        sigma_t: [1.0; 3],
+                        albedo: [0.5; 3],
+                        phase: Phase::Isotropic,
+                    },
                 }
             },
             "objects[1].material.eta",
@@ -692,7 +744,11 @@ mod tests {
             |s| {
                 s.objects[1].material = Material::Dielectric {
                     eta: 1.5,
-                    medium: Medium { sigma_t: [1.0, f64::NAN, 1.0], albedo: [0.5; 3], phase: Phase::Isotropic },
+                    medium: Medium {
+                        sigma_t: [1.0, f64::NAN, 1.0],
+                        albedo: [0.5; 3],
+                        phase: Phase::Isotropic,
+                    },
                 }
             },
             "objects[1].material.medium.sigma_t[1]",
@@ -702,7 +758,11 @@ mod tests {
             |s| {
                 s.objects[1].material = Material::Dielectric {
                     eta: 1.5,
-                    medium: Medium { sigma_t: [1.0; 3], albedo: [0.5; 3], phase: Phase::Hg { g: f64::NAN } },
+                    medium: Medium {
+                        sigma_t: [1.0; 3],
+                        albedo: [0.5; 3],
+                        phase: Phase::Hg { g: f64::NAN },
+                    },
                 }
             },
             "objects[1].material.medium.phase.g",
@@ -715,7 +775,12 @@ mod tests {
         rejects("/camera/fov_y", json!(0), "camera.fov_y", "(0, 180)");
         rejects("/camera/fov_y", json!(180), "camera.fov_y", "(0, 180)");
         rejects("/camera/fov_y", json!(-10), "camera.fov_y", "(0, 180)");
-        rejects("/camera/look_at", json!([0, 1, 5]), "camera.look_at", "differ");
+        rejects(
+            "/camera/look_at",
+            json!([0, 1, 5]),
+            "camera.look_at",
+            "differ",
+        );
         rejects_value(
             |s| {
                 s.camera.position = [0.0, 1.0, 1e308];
@@ -743,8 +808,18 @@ mod tests {
 
     #[test]
     fn light_values_are_checked() {
-        rejects("/lights/0/intensity/1", json!(-1), "lights[0].intensity[1]", ">= 0");
-        rejects("/lights/1/radiance/0", json!(-0.5), "lights[1].radiance[0]", ">= 0");
+        rejects(
+            "/lights/0/intensity/1",
+            json!(-1),
+            "lights[0].intensity[1]",
+            ">= 0",
+        );
+        rejects(
+            "/lights/1/radiance/0",
+            json!(-0.5),
+            "lights[1].radiance[0]",
+            ">= 0",
+        );
         rejects("/lights/1/radius", json!(0), "lights[1].radius", "> 0");
         rejects("/lights/1/radius", json!(-1), "lights[1].radius", "> 0");
         assert!(with("/lights/0/intensity", json!([0, 0, 0])).is_ok());
@@ -752,36 +827,126 @@ mod tests {
 
     #[test]
     fn shape_values_are_checked() {
-        rejects("/objects/0/shape/path", json!(""), "objects[0].shape.path", "empty");
-        rejects("/objects/1/shape/radius", json!(0), "objects[1].shape.radius", "> 0");
-        rejects("/objects/1/shape/subdivisions", json!(11), "objects[1].shape.subdivisions", "21 million");
+        rejects(
+            "/objects/0/shape/path",
+            json!(""),
+            "objects[0].shape.path",
+            "empty",
+        );
+        rejects(
+            "/objects/1/shape/radius",
+            json!(0),
+            "objects[1].shape.radius",
+            "> 0",
+        );
+        rejects(
+            "/objects/1/shape/subdivisions",
+            json!(11),
+            "objects[1].shape.subdivisions",
+            "21 million",
+        );
         assert!(with("/objects/1/shape/subdivisions", json!(10)).is_ok());
-        rejects("/objects/2/shape/radius", json!(-2), "objects[2].shape.radius", "> 0");
-        rejects("/objects/2/shape/subdivisions", json!(12), "objects[2].shape.subdivisions", "<= 10");
-        rejects("/objects/2/shape/amplitude", json!(1), "objects[2].shape.amplitude", "[0, 1)");
-        rejects("/objects/2/shape/amplitude", json!(-0.1), "objects[2].shape.amplitude", "[0, 1)");
-        rejects("/objects/2/shape/frequency", json!(-1), "objects[2].shape.frequency", ">= 0");
+        rejects(
+            "/objects/2/shape/radius",
+            json!(-2),
+            "objects[2].shape.radius",
+            "> 0",
+        );
+        rejects(
+            "/objects/2/shape/subdivisions",
+            json!(12),
+            "objects[2].shape.subdivisions",
+            "<= 10",
+        );
+        rejects(
+            "/objects/2/shape/amplitude",
+            json!(1),
+            "objects[2].shape.amplitude",
+            "[0, 1)",
+        );
+        rejects(
+            "/objects/2/shape/amplitude",
+            json!(-0.1),
+            "objects[2].shape.amplitude",
+            "[0, 1)",
+        );
+        rejects(
+            "/objects/2/shape/frequency",
+            json!(-1),
+            "objects[2].shape.frequency",
+            ">= 0",
+        );
     }
 
     #[test]
     fn transform_values_are_checked() {
-        rejects("/objects/1/transform/scale/2", json!(0), "objects[1].transform.scale[2]", "not be 0");
+        rejects(
+            "/objects/1/transform/scale/2",
+            json!(0),
+            "objects[1].transform.scale[2]",
+            "not be 0",
+        );
         // A negative scale mirrors the object; that is allowed.
         assert!(with("/objects/1/transform/scale/0", json!(-1)).is_ok());
     }
 
     #[test]
     fn material_values_are_checked() {
-        rejects("/objects/1/material/eta", json!(0.9), "objects[1].material.eta", "unsupported");
-        rejects("/objects/1/material/eta", json!(10.5), "objects[1].material.eta", "<= 10");
+        rejects(
+            "/objects/1/material/eta",
+            json!(0.9),
+            "objects[1].material.eta",
+            "unsupported",
+        );
+        rejects(
+            "/objects/1/material/eta",
+            json!(10.5),
+            "objects[1].material.eta",
+            "<= 10",
+        );
         assert!(with("/objects/1/material/eta", json!(1)).is_ok());
-        rejects("/objects/1/material/medium/sigma_t/1", json!(-0.5), "objects[1].material.medium.sigma_t[1]", ">= 0");
-        rejects("/objects/1/material/medium/albedo/2", json!(1.01), "objects[1].material.medium.albedo[2]", "[0, 1]");
-        rejects("/objects/1/material/medium/albedo/0", json!(-0.01), "objects[1].material.medium.albedo[0]", "[0, 1]");
-        rejects("/objects/1/material/medium/phase/g", json!(1), "objects[1].material.medium.phase.g", "(-1, 1)");
-        rejects("/objects/1/material/medium/phase/g", json!(-1), "objects[1].material.medium.phase.g", "(-1, 1)");
-        rejects("/objects/0/material/reflectance/1", json!(1.5), "objects[0].material.reflectance[1]", "[0, 1]");
-        rejects("/objects/0/material/reflectance/0", json!(-0.1), "objects[0].material.reflectance[0]", "[0, 1]");
+        rejects(
+            "/objects/1/material/medium/sigma_t/1",
+            json!(-0.5),
+            "objects[1].material.medium.sigma_t[1]",
+            ">= 0",
+        );
+        rejects(
+            "/objects/1/material/medium/albedo/2",
+            json!(1.01),
+            "objects[1].material.medium.albedo[2]",
+            "[0, 1]",
+        );
+        rejects(
+            "/objects/1/material/medium/albedo/0",
+            json!(-0.01),
+            "objects[1].material.medium.albedo[0]",
+            "[0, 1]",
+        );
+        rejects(
+            "/objects/1/material/medium/phase/g",
+            json!(1),
+            "objects[1].material.medium.phase.g",
+            "(-1, 1)",
+        );
+        rejects(
+            "/objects/1/material/medium/phase/g",
+            json!(-1),
+            "objects[1].material.medium.phase.g",
+            "(-1, 1)",
+        );
+        rejects(
+            "/objects/0/material/reflectance/1",
+            json!(1.5),
+            "objects[0].material.reflectance[1]",
+            "[0, 1]",
+        );
+        rejects(
+            "/objects/0/material/reflectance/0",
+            json!(-0.1),
+            "objects[0].material.reflectance[0]",
+            "[0, 1]",
+        );
     }
 
     #[test]
@@ -791,17 +956,57 @@ mod tests {
 
     #[test]
     fn integrator_values_are_checked() {
-        rejects("/integrator/max_depth", json!(65), "integrator.max_depth", "<= 64");
-        rejects("/integrator/internal_reflections", json!(9), "integrator.internal_reflections", "max_depth");
+        rejects(
+            "/integrator/max_depth",
+            json!(65),
+            "integrator.max_depth",
+            "<= 64",
+        );
+        rejects(
+            "/integrator/internal_reflections",
+            json!(9),
+            "integrator.internal_reflections",
+            "max_depth",
+        );
         assert!(with("/integrator/internal_reflections", json!(8)).is_ok());
         let ss = "/integrator/single_scatter";
-        rejects(&format!("{ss}/k"), json!(0), "integrator.single_scatter.k", ">= 1");
-        rejects(&format!("{ss}/newton_tolerance"), json!(0), "integrator.single_scatter.newton_tolerance", "(0, 0.01]");
-        rejects(&format!("{ss}/newton_tolerance"), json!(0.02), "integrator.single_scatter.newton_tolerance", "(0, 0.01]");
+        rejects(
+            &format!("{ss}/k"),
+            json!(0),
+            "integrator.single_scatter.k",
+            ">= 1",
+        );
+        rejects(
+            &format!("{ss}/newton_tolerance"),
+            json!(0),
+            "integrator.single_scatter.newton_tolerance",
+            "(0, 0.01]",
+        );
+        rejects(
+            &format!("{ss}/newton_tolerance"),
+            json!(0.02),
+            "integrator.single_scatter.newton_tolerance",
+            "(0, 0.01]",
+        );
         assert!(with(&format!("{ss}/newton_tolerance"), json!(0.01)).is_ok());
-        rejects(&format!("{ss}/samples_per_segment"), json!(0), "integrator.single_scatter.samples_per_segment", ">= 1");
-        rejects(&format!("{ss}/auto_tolerance"), json!(1), "integrator.single_scatter.auto_tolerance", "[0, 1)");
-        rejects(&format!("{ss}/auto_tolerance"), json!(-0.1), "integrator.single_scatter.auto_tolerance", "[0, 1)");
+        rejects(
+            &format!("{ss}/samples_per_segment"),
+            json!(0),
+            "integrator.single_scatter.samples_per_segment",
+            ">= 1",
+        );
+        rejects(
+            &format!("{ss}/auto_tolerance"),
+            json!(1),
+            "integrator.single_scatter.auto_tolerance",
+            "[0, 1)",
+        );
+        rejects(
+            &format!("{ss}/auto_tolerance"),
+            json!(-0.1),
+            "integrator.single_scatter.auto_tolerance",
+            "[0, 1)",
+        );
     }
 
     #[test]
