@@ -6,7 +6,7 @@ use spindle_worker::render::{Assets, Scene, render_tile};
 
 /// An axis-aligned box `[-10, 10]² × [0, thickness]` as OBJ text, with one normal per face (so
 /// the shading normals are exactly the face normals).
-fn slab_obj(thickness: f64) -> String {
+fn slab_obj(thickness: f64, open_back: bool) -> String {
     let mut s = String::new();
     for i in 0..8 {
         let x = if i & 1 == 1 { 10.0 } else { -10.0 };
@@ -16,14 +16,16 @@ fn slab_obj(thickness: f64) -> String {
     }
     s += "vn 0 0 -1\nvn 0 0 1\nvn 0 -1 0\nvn 0 1 0\nvn -1 0 0\nvn 1 0 0\n";
     // Quads wound counter-clockwise seen from outside (1-based indices).
-    for (n, q) in [
+    let faces = [
         (1, [1, 3, 4, 2]),
         (2, [5, 6, 8, 7]),
         (3, [1, 2, 6, 5]),
         (4, [3, 7, 8, 4]),
         (5, [1, 5, 7, 3]),
         (6, [2, 4, 8, 6]),
-    ] {
+    ];
+    // The back face (z = 0, normal −z) is the first; an open slab leaves it out.
+    for &(n, q) in &faces[open_back as usize..] {
         s += &format!(
             "f {}//{n} {}//{n} {}//{n} {}//{n}\n",
             q[0], q[1], q[2], q[3]
@@ -32,16 +34,27 @@ fn slab_obj(thickness: f64) -> String {
     s
 }
 
-fn slab_scene(thickness: f64, sigma_t: f64, internal_reflections: u32) -> (Scene, f64) {
+/// A camera looking down −z at a glass slab (z from 0 to `thickness`, scaled by `scale` about
+/// the origin, σ_t divided by `scale`), with a sphere light behind it filling the view.
+fn slab_scene(
+    thickness: f64,
+    sigma_t: f64,
+    internal_reflections: u32,
+    scale: f64,
+    open_back: bool,
+) -> (Scene, f64) {
     let radiance = 3.0;
+    let sigma_t = sigma_t / scale;
+    let (camera_z, light_z, light_r) = (5.0 * scale, -1000.0 * scale, 900.0 * scale);
     let json = format!(
         r#"{{
-        "camera": {{ "position": [0, 0, 5], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov_y": 0.01 }},
+        "camera": {{ "position": [0, 0, {camera_z}], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov_y": 0.01 }},
         "film": {{ "width": 3, "height": 3, "spp": 4, "seed": 1 }},
-        "lights": [ {{ "type": "sphere", "center": [0, 0, -1000], "radius": 900,
+        "lights": [ {{ "type": "sphere", "center": [0, 0, {light_z}], "radius": {light_r},
                        "radiance": [{radiance}, {radiance}, {radiance}] }} ],
         "objects": [ {{
             "shape": {{ "type": "obj", "path": "slab.obj" }},
+            "transform": {{ "scale": [{scale}, {scale}, {scale}] }},
             "material": {{ "type": "dielectric", "eta": 1.5,
                 "medium": {{ "sigma_t": [{sigma_t}, {sigma_t}, {sigma_t}], "albedo": [0, 0, 0] }} }}
         }} ],
@@ -49,7 +62,10 @@ fn slab_scene(thickness: f64, sigma_t: f64, internal_reflections: u32) -> (Scene
     }}"#
     );
     let desc: SceneDesc = serde_json::from_str(&json).unwrap();
-    let assets = Assets::from([("slab.obj".to_string(), slab_obj(thickness).into_bytes())]);
+    let assets = Assets::from([(
+        "slab.obj".to_string(),
+        slab_obj(thickness, open_back).into_bytes(),
+    )]);
     (Scene::build(&desc, &assets).unwrap(), radiance)
 }
 
@@ -58,10 +74,10 @@ fn sphere_light_through_an_absorbing_glass_slab() {
     let (d, s) = (0.7, 1.3);
     let f0 = ((1.5f64 - 1.0) / (1.5 + 1.0)).powi(2);
     // Only the direct transmission: L = L_e (1 − F0)² e^{−s d}.
-    let (scene, le) = slab_scene(d, s, 0);
+    let (scene, le) = slab_scene(d, s, 0, 1.0, false);
     let expected = le * (1.0 - f0).powi(2) * (-s * d).exp();
     // Two internal reflections allow one extra round trip: the series' k = 1 term.
-    let (scene2, _) = slab_scene(d, s, 2);
+    let (scene2, _) = slab_scene(d, s, 2, 1.0, false);
     let round_trip = f0 * f0 * (-2.0 * s * d).exp();
     let expected2 = expected * (1.0 + round_trip);
     for (scene, expected) in [(&scene, expected), (&scene2, expected2)] {
@@ -186,5 +202,55 @@ fn pixels_are_the_same_bits_whatever_the_tiling() {
                 }
             }
         }
+    }
+}
+
+#[test]
+fn slab_value_holds_at_tiny_and_huge_scales() {
+    // The same slab scaled by 1e-4 and 1e4 (σ_t scaled inversely) gives the same pixels: the
+    // surface offsets and tolerances follow the scene's size.
+    let (d, s) = (0.5, 2.0);
+    let f0 = 0.04;
+    let rect = TileRect {
+        x: 0,
+        y: 0,
+        width: 3,
+        height: 3,
+    };
+    for scale in [1e-4, 1.0, 1e4] {
+        let (scene, le) = slab_scene(d, s, 2, scale, false);
+        let expected =
+            le * (1.0 - f0) * (1.0 - f0) * (-s * d).exp() * (1.0 + f0 * f0 * (-2.0 * s * d).exp());
+        let tile = render_tile(&scene, rect);
+        for v in &tile.total {
+            let rel = (*v as f64 - expected).abs() / expected;
+            assert!(rel < 1e-4, "scale {scale}: {v} vs {expected}");
+        }
+    }
+}
+
+#[test]
+fn a_ray_escaping_an_open_mesh_leaves_the_object() {
+    // The slab without its back face: refracted camera rays escape through the hole, travel to
+    // the edge of the object's bounds (z = 0, so through the full thickness) and carry on in air
+    // to the light, as through a perfectly transmitting interface: L = L_e (1 − F0) e^{−s d}.
+    let (d, s) = (0.5, 1.0);
+    let (scene, le) = slab_scene(d, s, 2, 1.0, true);
+    assert_eq!(scene.warnings().len(), 1, "{:?}", scene.warnings());
+    let expected = le * (1.0 - 0.04) * (-s * d).exp();
+    let tile = render_tile(
+        &scene,
+        TileRect {
+            x: 0,
+            y: 0,
+            width: 3,
+            height: 3,
+        },
+    );
+    for v in &tile.total {
+        assert!(
+            (*v as f64 - expected).abs() < 1e-4 * expected,
+            "{v} vs {expected}"
+        );
     }
 }

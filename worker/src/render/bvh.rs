@@ -33,9 +33,7 @@ pub struct Hit {
 /// One triangle in leaf (slot) order, ready for the f64 test.
 #[derive(Debug, Clone, Copy)]
 struct SlotTriangle {
-    p0: DVec3,
-    e1: DVec3,
-    e2: DVec3,
+    p: [DVec3; 3],
     index: u32,
 }
 
@@ -77,14 +75,9 @@ impl Bvh {
         let slots = tree
             .primitive_indices
             .iter()
-            .map(|&i| {
-                let [p0, p1, p2] = triangles[i as usize];
-                SlotTriangle {
-                    p0,
-                    e1: p1 - p0,
-                    e2: p2 - p0,
-                    index: i,
-                }
+            .map(|&i| SlotTriangle {
+                p: triangles[i as usize],
+                index: i,
             })
             .collect();
         Bvh { tree, slots }
@@ -107,6 +100,7 @@ impl Bvh {
         }
         let mut best: Option<Hit> = None;
         let mut best_t = t_max;
+        let sheared = ShearedRay::new(ray);
         let query = F32Ray::new(
             ray.origin.as_vec3a(),
             ray.dir.as_vec3a(),
@@ -116,7 +110,7 @@ impl Bvh {
         let mut f32_hit = RayHit::none();
         self.tree.ray_traverse(query, &mut f32_hit, |_, slot| {
             let tri = &self.slots[slot];
-            match intersect(ray, tri) {
+            match sheared.intersect(tri) {
                 Some((t, a, b)) if t < best_t => {
                     best_t = t;
                     best = Some(Hit {
@@ -138,10 +132,10 @@ impl Bvh {
         if self.slots.is_empty() {
             return false;
         }
-        let ray = Ray::new(origin, dir);
+        let sheared = ShearedRay::new(&Ray::new(origin, dir));
         let query = F32Ray::new(origin.as_vec3a(), dir.as_vec3a(), 0.0, f32::INFINITY);
         let missed = self.tree.ray_traverse_miss(query, |_, slot| {
-            match intersect(&ray, &self.slots[slot]) {
+            match sheared.intersect(&self.slots[slot]) {
                 Some((t, _, _)) if t < t_max => 0.0,
                 _ => f32::INFINITY,
             }
@@ -151,10 +145,11 @@ impl Bvh {
 
     /// Brute force: the nearest hit over all triangles (tests and debugging).
     pub fn closest_hit_brute_force(&self, ray: &Ray) -> Option<Hit> {
+        let sheared = ShearedRay::new(ray);
         self.slots
             .iter()
             .filter_map(|tri| {
-                intersect(ray, tri).map(|(t, a, b)| Hit {
+                sheared.intersect(tri).map(|(t, a, b)| Hit {
                     t,
                     triangle: tri.index,
                     a,
@@ -216,27 +211,60 @@ fn conservative_f32(t: f64) -> f32 {
     if (t32 as f64) < t { t32.next_up() } else { t32 }
 }
 
-/// Möller–Trumbore in f64, edges included: `(t, a, b)` for a hit at `t > 0`.
-#[inline]
-fn intersect(ray: &Ray, tri: &SlotTriangle) -> Option<(f64, f64, f64)> {
-    let p = ray.dir.cross(tri.e2);
-    let det = tri.e1.dot(p);
-    if det == 0.0 || !det.is_finite() {
-        return None;
+/// A ray prepared for the watertight ray–triangle test of Woop, Benthin and Wald (JCGT 2013):
+/// the ray is the z axis of a sheared frame, so each edge function depends only on its two
+/// vertices, and two triangles sharing an edge or a vertex agree exactly on which side the ray
+/// passes. No ray slips between them.
+#[derive(Debug, Clone, Copy)]
+struct ShearedRay {
+    origin: DVec3,
+    axes: [usize; 3],
+    shear: DVec3,
+}
+
+impl ShearedRay {
+    fn new(ray: &Ray) -> ShearedRay {
+        // The dominant axis becomes z; swap x and y if that flips the winding.
+        let d = ray.dir;
+        let kz = d.abs().max_position();
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        if d[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        ShearedRay {
+            origin: ray.origin,
+            axes: [kx, ky, kz],
+            shear: DVec3::new(d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]),
+        }
     }
-    let inv = 1.0 / det;
-    let s = ray.origin - tri.p0;
-    let a = s.dot(p) * inv;
-    if !(0.0..=1.0).contains(&a) {
-        return None;
+
+    /// `(t, a, b)` for a hit at `t > 0`, edges and vertices included; `a`, `b` are the weights
+    /// of P1 and P2.
+    #[inline]
+    fn intersect(&self, tri: &SlotTriangle) -> Option<(f64, f64, f64)> {
+        let [kx, ky, kz] = self.axes;
+        let s = self.shear;
+        // Vertices relative to the origin, sheared so the ray runs along +z.
+        let [a, b, c] = tri.p.map(|p| p - self.origin);
+        let (ax, ay) = (a[kx] - s.x * a[kz], a[ky] - s.y * a[kz]);
+        let (bx, by) = (b[kx] - s.x * b[kz], b[ky] - s.y * b[kz]);
+        let (cx, cy) = (c[kx] - s.x * c[kz], c[ky] - s.y * c[kz]);
+        // Edge functions (scaled barycentrics of P0, P1, P2).
+        let u = cx * by - cy * bx;
+        let v = ax * cy - ay * cx;
+        let w = bx * ay - by * ax;
+        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+            return None;
+        }
+        let det = u + v + w;
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        // Distance along the ray, from the sheared z coordinates.
+        let t = (u * a[kz] + v * b[kz] + w * c[kz]) * s.z / det;
+        (t > 0.0).then_some((t, v / det, w / det))
     }
-    let q = s.cross(tri.e1);
-    let b = ray.dir.dot(q) * inv;
-    if b < 0.0 || a + b > 1.0 {
-        return None;
-    }
-    let t = tri.e2.dot(q) * inv;
-    (t > 0.0).then_some((t, a, b))
 }
 
 #[cfg(test)]
@@ -311,6 +339,36 @@ mod tests {
         // Every ray from inside the closed sphere must hit it.
         assert_eq!(inside_hits, 1500);
         assert!(hits > 1500);
+    }
+
+    #[test]
+    fn no_ray_leaks_out_of_a_closed_mesh_through_edges_or_vertices() {
+        // Rays from inside aimed exactly at vertices and edge points (where two or more
+        // triangles meet, the case where an f32 test lets about one ray in a million through)
+        // must all hit: the f64 test includes edges.
+        let mesh = icosphere(1.0, 5);
+        let bvh = Bvh::build(&triangles_of(&mesh));
+        let mut s = Sampler::new(23, 0, 0, 0);
+        let mut rays = 0;
+        for i in 0..mesh.triangle_count() {
+            let [p0, p1, p2] = mesh.corners(i);
+            let origin = random_unit(&mut s) * 0.7 * s.next_f64();
+            let w = s.next_f64();
+            for target in [
+                p0,
+                p0 + w * (p1 - p0),
+                p1 + w * (p2 - p1),
+                p2 + w * (p0 - p2),
+            ] {
+                let ray = Ray::new(origin, (target - origin).normalize());
+                assert!(
+                    bvh.closest_hit(&ray).is_some(),
+                    "triangle {i}: {ray:?} leaked"
+                );
+                rays += 1;
+            }
+        }
+        assert_eq!(rays, 4 * 20480);
     }
 
     #[test]

@@ -142,9 +142,12 @@ fn trace(
             match hit {
                 Some(hit) => interact(scene, &ray, &hit, state, sampler, stats, out),
                 None => {
-                    // Escaped: carry on in air from the edge of the object's bounds.
+                    // Escaped through a hole (or a leak between triangles): carry on in air from
+                    // the edge of the object's bounds, as if through a perfectly transmitting
+                    // interface (no Fresnel; the pending 1/η² is given back).
                     let outside = PathState {
                         inside: None,
+                        throughput: state.throughput * (dielectric.eta * dielectric.eta),
                         ..state
                     };
                     let from = Ray::new(ray.at(length), ray.dir);
