@@ -1,0 +1,99 @@
+//! `spindle render` end to end: the real binary on the example scenes.
+
+use std::path::Path;
+use std::process::Command;
+
+use spindle_common::image::read_exr;
+use spindle_common::scene::Scene as SceneDesc;
+use spindle_common::tile::TileRect;
+use spindle_worker::render::{Assets, Scene, render_tile};
+
+fn repo() -> &'static Path {
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
+}
+
+#[test]
+fn renders_the_tiny_example_to_exr_and_png_matching_the_library() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("tiny.exr");
+    let scene_path = repo().join("scenes/tiny.json");
+    let output = Command::new(env!("CARGO_BIN_EXE_spindle"))
+        .args([
+            "render",
+            scene_path.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--stats",
+        ])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(
+        stdout.contains("rendered") && stdout.contains("spp") && stdout.contains("camera_rays"),
+        "{stdout}"
+    );
+    assert!(dir.path().join("tiny.png").is_file());
+
+    let image = read_exr(&out).unwrap();
+    let desc = SceneDesc::from_json(&std::fs::read_to_string(&scene_path).unwrap()).unwrap();
+    assert_eq!(
+        (image.width, image.height),
+        (desc.film.width, desc.film.height)
+    );
+    assert_eq!(
+        image.attributes.get("spindle.spp"),
+        Some(&desc.film.spp.to_string())
+    );
+
+    // The file holds exactly what the library renders for the whole frame.
+    let mut assets = Assets::new();
+    for object in &desc.objects {
+        if let spindle_common::scene::Shape::Obj { path } = &object.shape {
+            assets.insert(
+                path.clone(),
+                std::fs::read(repo().join("scenes").join(path)).unwrap(),
+            );
+        }
+    }
+    let scene = Scene::build(&desc, &assets).unwrap();
+    let full = TileRect {
+        x: 0,
+        y: 0,
+        width: desc.film.width,
+        height: desc.film.height,
+    };
+    let tile = render_tile(&scene, full);
+    assert_eq!(image.total, tile.total);
+    assert_eq!(image.surface, tile.surface);
+    assert_eq!(image.single_scatter, tile.single_scatter);
+    assert!(image.total.iter().any(|&v| v > 0.0));
+}
+
+#[test]
+fn a_bad_scene_fails_with_the_json_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("bad.json");
+    let text = std::fs::read_to_string(repo().join("scenes/tiny.json"))
+        .unwrap()
+        .replacen("\"fov_y\"", "\"fov_y\": -3, \"unused_fov\"", 1);
+    std::fs::write(&scene, text).unwrap();
+    let output = Command::new(env!("CARGO_BIN_EXE_spindle"))
+        .args([
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            dir.path().join("x.exr").to_str().unwrap(),
+        ])
+        .env_remove("RUST_BACKTRACE")
+        .output()
+        .unwrap();
+    assert!(!output.status.success());
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.contains("camera"), "{stderr}");
+    assert!(!dir.path().join("x.exr").exists());
+}
