@@ -4,6 +4,7 @@
 #![forbid(unsafe_code)]
 
 pub mod image;
+pub mod protocol;
 pub mod scene;
 pub mod stats;
 pub mod tile;

@@ -1,0 +1,430 @@
+//! The farm's HTTP API: every request and response body exchanged between the `spindle`
+//! command, the coordinator (`spindle-server`) and the workers (`spindle-worker`).
+//!
+//! The types live here, once, so the three processes cannot drift apart; the coordinator's
+//! OpenAPI document (`GET /v1/openapi.json`) is generated from them. Requests reject unknown
+//! fields. Every error response has the body [`ApiError`] (`{"error": "..."}`), naming the field
+//! or the problem.
+//!
+//! # Routes
+//!
+//! Client routes need `Authorization: Bearer $SPINDLE_TOKEN`, worker routes
+//! `Authorization: Bearer $SPINDLE_WORKER_TOKEN` (a coordinator on loopback may run without
+//! tokens; it refuses a non-loopback address without both).
+//!
+//! | method | path | who | body → response |
+//! |---|---|---|---|
+//! | GET | `/healthz` | anyone | `200 ok` while the process runs |
+//! | GET | `/readyz` | anyone | `200 ready` once the database is open, else 503 |
+//! | GET | `/v1/openapi.json` | anyone | the OpenAPI 3.1 document |
+//! | POST | `/v1/assets/missing` | client | [`MissingAssetsRequest`] → [`MissingAssetsResponse`] |
+//! | PUT | `/v1/assets/{hash}` | client | raw bytes (blake3 hex = `hash`, else 400) → [`AssetStored`] |
+//! | GET | `/v1/assets/{hash}` | worker | → raw bytes |
+//! | POST | `/v1/jobs` | client | [`SubmitJob`] (+ optional [`IDEMPOTENCY_KEY_HEADER`]) → 201 [`JobInfo`] (200 when the key was seen) |
+//! | GET | `/v1/jobs` | client | → [`JobList`] |
+//! | GET | `/v1/jobs/{id}` | client | → [`JobInfo`] |
+//! | POST | `/v1/jobs/{id}/cancel` | client | → [`JobInfo`] |
+//! | DELETE | `/v1/jobs/{id}` | client | → 204 |
+//! | GET | `/v1/jobs/{id}/image.exr` | client | → the final EXR; 409 until the job is done |
+//! | GET | `/v1/jobs/{id}/image.png` | client | → a PNG preview of the tiles received so far |
+//! | POST | `/v1/workers` | worker | [`RegisterWorker`] → [`WorkerRegistered`] |
+//! | POST | `/v1/workers/{id}/lease` | worker | [`LeaseRequest`] (or empty body) → 200 [`Lease`], or 204 after the long poll |
+//! | GET | `/v1/jobs/{id}/spec` | worker | → [`JobSpec`] |
+//! | POST | `/v1/leases/{job}/{tile}/heartbeat` | worker | [`Heartbeat`] → [`HeartbeatAck`]; 409 when the lease is no longer yours |
+//! | PUT | `/v1/jobs/{job}/tiles/{tile}` | worker | [`TileUpload`] → [`TileAck`]; 409 stale epoch or a different result |
+//! | POST | `/v1/leases/{job}/{tile}/fail` | worker | [`TileFailure`] → 204 |
+//!
+//! # Leases
+//!
+//! A lease hands one tile of one job to one worker for `ttl_ms`; heartbeats renew it. Each lease
+//! of a tile carries a higher `epoch`. The coordinator accepts a tile upload only from the
+//! current lease (worker and epoch), or — after the tile is done — an identical result (same
+//! [`pixel_hash`]) from anyone, acknowledged as a duplicate. A 409 means: drop this tile and ask
+//! for a new lease. A 404 on a job means it was deleted.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+use crate::scene::Scene;
+use crate::stats::RenderStats;
+use crate::tile::{TilePixels, TileRect};
+
+/// Tile edge in pixels when a job does not say.
+pub const DEFAULT_TILE_SIZE: u32 = 32;
+
+/// Header that makes `POST /v1/jobs` safe to retry: a second submission with the same key
+/// returns the job the first one created.
+pub const IDEMPOTENCY_KEY_HEADER: &str = "idempotency-key";
+
+/// The longest a `POST /v1/workers/{id}/lease` long poll waits before answering 204.
+pub const MAX_LEASE_WAIT_MS: u64 = 20_000;
+
+/// The body of every error response.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ApiError {
+    /// What was wrong, naming the field or the problem (`scene.film.width: must be <= 8192`).
+    pub error: String,
+}
+
+/// Which of these content hashes does the coordinator not have yet?
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MissingAssetsRequest {
+    /// blake3 hashes, lowercase hex.
+    pub hashes: Vec<String>,
+}
+
+/// The hashes of [`MissingAssetsRequest`] that must be uploaded, in request order.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MissingAssetsResponse {
+    pub missing: Vec<String>,
+}
+
+/// Answer to an asset upload.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct AssetStored {
+    pub hash: String,
+    /// Size of the stored asset in bytes.
+    pub bytes: u64,
+}
+
+/// A render job as submitted by a client.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SubmitJob {
+    /// The scene, as in a scene file.
+    #[schema(value_type = Object)]
+    pub scene: Scene,
+    /// For each `obj` shape's `path` in the scene, the blake3 hash of the uploaded file.
+    #[serde(default)]
+    pub assets: BTreeMap<String, String>,
+    /// Tile edge in pixels (default 32).
+    #[serde(default = "default_tile_size")]
+    pub tile_size: u32,
+    /// Higher runs first; equal priorities run in submission order.
+    #[serde(default)]
+    pub priority: i32,
+}
+
+fn default_tile_size() -> u32 {
+    DEFAULT_TILE_SIZE
+}
+
+/// Where a job is in its life.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum JobState {
+    /// Waiting: no tile leased yet.
+    Queued,
+    /// Tiles are being rendered (or the final image is being assembled).
+    Running,
+    /// Every tile is in and the final EXR is written.
+    Done,
+    /// A tile failed on three different workers (see `error`).
+    Failed,
+    /// Cancelled by a client.
+    Cancelled,
+}
+
+impl JobState {
+    /// Done, failed or cancelled: the job will not change again.
+    pub fn is_finished(self) -> bool {
+        matches!(
+            self,
+            JobState::Done | JobState::Failed | JobState::Cancelled
+        )
+    }
+
+    /// The lowercase name used on the wire and in the database.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            JobState::Queued => "queued",
+            JobState::Running => "running",
+            JobState::Done => "done",
+            JobState::Failed => "failed",
+            JobState::Cancelled => "cancelled",
+        }
+    }
+
+    /// Inverse of [`JobState::as_str`].
+    pub fn parse(name: &str) -> Option<JobState> {
+        [
+            JobState::Queued,
+            JobState::Running,
+            JobState::Done,
+            JobState::Failed,
+            JobState::Cancelled,
+        ]
+        .into_iter()
+        .find(|s| s.as_str() == name)
+    }
+}
+
+/// A job's progress, as the coordinator sees it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct JobInfo {
+    pub id: u64,
+    pub state: JobState,
+    pub priority: i32,
+    pub width: u32,
+    pub height: u32,
+    pub tile_size: u32,
+    pub tiles_done: u32,
+    pub tiles_total: u32,
+    /// Seconds since the first tile was leased (0 while queued), up to the end of the job.
+    pub elapsed_s: f64,
+    /// Estimated seconds left, from the rate so far; absent until a tile is done.
+    pub eta_s: Option<f64>,
+    /// Why the job failed.
+    pub error: Option<String>,
+    /// Counters of the tiles received so far.
+    pub stats: RenderStats,
+}
+
+/// All jobs, oldest first.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct JobList {
+    pub jobs: Vec<JobInfo>,
+}
+
+/// A worker introduces itself.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct RegisterWorker {
+    /// A human-readable name (host name, …), for logs.
+    pub name: String,
+    /// Render threads the worker runs.
+    pub threads: u32,
+}
+
+/// The id a worker uses in every later request.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct WorkerRegistered {
+    pub worker_id: u64,
+}
+
+/// Options of a lease request; an empty body means the defaults.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(default, deny_unknown_fields)]
+pub struct LeaseRequest {
+    /// How long to wait for work before answering 204, in ms (default and maximum
+    /// [`MAX_LEASE_WAIT_MS`]).
+    pub wait_ms: Option<u64>,
+}
+
+/// One tile of one job, handed to one worker until `ttl_ms` passes without a heartbeat.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Lease {
+    pub job_id: u64,
+    /// The tile's index in the job's centre-first order
+    /// ([`crate::tile::split_centre_first`] of the film size and the job's tile size).
+    pub tile_index: u32,
+    pub rect: TileRect,
+    /// Grows with every lease of this tile; quote it in heartbeats, uploads and failures.
+    pub epoch: u64,
+    /// The lease lapses this long after it was granted or last renewed.
+    pub ttl_ms: u64,
+}
+
+/// What a worker needs to render a job's tiles.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct JobSpec {
+    #[schema(value_type = Object)]
+    pub scene: Scene,
+    /// `obj` path in the scene → blake3 hash; fetch each with `GET /v1/assets/{hash}`.
+    pub assets: BTreeMap<String, String>,
+    pub tile_size: u32,
+}
+
+/// "I am still rendering this tile."
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Heartbeat {
+    pub worker_id: u64,
+    pub epoch: u64,
+}
+
+/// The lease was renewed for another `ttl_ms`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct HeartbeatAck {
+    pub ttl_ms: u64,
+}
+
+/// A rendered tile.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TileUpload {
+    pub worker_id: u64,
+    pub epoch: u64,
+    /// [`pixel_hash`] of `pixels`; the coordinator recomputes it (400 on mismatch).
+    pub hash: String,
+    pub pixels: TilePixels,
+}
+
+/// How the coordinator took a tile upload.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum TileOutcome {
+    /// Stored: this upload completed the tile.
+    Accepted,
+    /// The tile was already done with an identical result; nothing changed.
+    Duplicate,
+}
+
+/// Acknowledgement of a tile upload; stop retrying once received.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TileAck {
+    pub outcome: TileOutcome,
+}
+
+/// "I could not render this tile."
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TileFailure {
+    pub worker_id: u64,
+    pub epoch: u64,
+    pub reason: String,
+}
+
+/// The canonical bytes of a tile's pixels: the rectangle (`x, y, width, height` as u32
+/// little-endian), then each layer in [`crate::tile::LAYER_NAMES`] order as f32 little-endian
+/// bits. Statistics are not part of it.
+pub fn canonical_pixel_bytes(pixels: &TilePixels) -> Vec<u8> {
+    let floats: usize = pixels.layers().iter().map(|l| l.len()).sum();
+    let mut bytes = Vec::with_capacity(16 + 4 * floats);
+    let r = pixels.rect;
+    for v in [r.x, r.y, r.width, r.height] {
+        bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    for layer in pixels.layers() {
+        for v in layer {
+            bytes.extend_from_slice(&v.to_bits().to_le_bytes());
+        }
+    }
+    bytes
+}
+
+/// blake3 of [`canonical_pixel_bytes`], lowercase hex: the `hash` of a [`TileUpload`].
+pub fn pixel_hash(pixels: &TilePixels) -> String {
+    blake3::hash(&canonical_pixel_bytes(pixels))
+        .to_hex()
+        .to_string()
+}
+
+/// blake3 of an asset's bytes, lowercase hex: the name assets are stored and fetched by.
+pub fn asset_hash(bytes: &[u8]) -> String {
+    blake3::hash(bytes).to_hex().to_string()
+}
+
+/// Is `s` a well-formed hash (64 lowercase hex digits)?
+pub fn is_hash(s: &str) -> bool {
+    s.len() == 64 && s.bytes().all(|b| matches!(b, b'0'..=b'9' | b'a'..=b'f'))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tile() -> TilePixels {
+        let mut t = TilePixels::black(TileRect {
+            x: 3,
+            y: 4,
+            width: 2,
+            height: 1,
+        });
+        t.total[0] = 1.0;
+        t
+    }
+
+    #[test]
+    fn canonical_bytes_follow_the_documented_layout() {
+        let t = tile();
+        let b = canonical_pixel_bytes(&t);
+        assert_eq!(b.len(), 16 + 4 * 3 * 6);
+        assert_eq!(&b[0..4], &3u32.to_le_bytes());
+        assert_eq!(&b[12..16], &1u32.to_le_bytes());
+        assert_eq!(&b[16..20], &1.0f32.to_bits().to_le_bytes());
+        assert_eq!(
+            pixel_hash(&t),
+            blake3::hash(&b).to_hex().to_string(),
+            "pixel_hash is blake3 of the canonical bytes"
+        );
+    }
+
+    #[test]
+    fn hash_changes_with_one_pixel_and_ignores_stats() {
+        let a = tile();
+        let mut b = a.clone();
+        b.single_scatter[5] = f32::from_bits(1);
+        assert_ne!(pixel_hash(&a), pixel_hash(&b));
+        let mut c = a.clone();
+        c.stats.camera_rays = 7;
+        assert_eq!(pixel_hash(&a), pixel_hash(&c));
+    }
+
+    #[test]
+    fn known_blake3_vector() {
+        // blake3 of the empty input, from the BLAKE3 specification's test vectors.
+        assert_eq!(
+            asset_hash(b""),
+            "af1349b9f5f9a1a6a0404dea36dcc9499bcb25c9adc112b7cc9a93cae41f3262"
+        );
+        assert!(is_hash(&asset_hash(b"x")));
+        assert!(!is_hash(
+            "AF1349b9f5f9a1a6a0404dea36dcc9499bcb25c9adc112b7cc9a93cae41f3262"
+        ));
+        assert!(!is_hash("../etc/passwd"));
+    }
+
+    /// Tiles travel as JSON numbers: every finite f32 must survive the round trip bit for bit,
+    /// or farm images would differ from single-process ones.
+    #[test]
+    fn f32_pixels_survive_json_exactly() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut values = vec![0.0f32, -0.0, f32::MIN_POSITIVE, f32::MAX, f32::from_bits(1)];
+        while values.len() < 200_000 {
+            // xorshift64*: a fixed pseudo-random sweep over bit patterns.
+            state ^= state >> 12;
+            state ^= state << 25;
+            state ^= state >> 27;
+            let v = f32::from_bits((state.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 32) as u32);
+            if v.is_finite() {
+                values.push(v);
+            }
+        }
+        let json = serde_json::to_string(&values).unwrap();
+        let back: Vec<f32> = serde_json::from_str(&json).unwrap();
+        for (a, b) in values.iter().zip(&back) {
+            assert_eq!(a.to_bits(), b.to_bits(), "{a:e} came back as {b:e}");
+        }
+    }
+
+    #[test]
+    fn requests_reject_unknown_fields_and_fill_defaults() {
+        let scene = r#"{"camera":{"position":[0,0,5],"look_at":[0,0,0],"fov_y":40},
+                        "film":{"width":8,"height":8}}"#;
+        let ok: SubmitJob = serde_json::from_str(&format!(r#"{{"scene":{scene}}}"#)).unwrap();
+        assert_eq!((ok.tile_size, ok.priority), (32, 0));
+        assert!(ok.assets.is_empty());
+        let bad = serde_json::from_str::<SubmitJob>(&format!(r#"{{"scene":{scene},"spp":3}}"#));
+        assert!(bad.unwrap_err().to_string().contains("unknown field `spp`"));
+        let lease: LeaseRequest = serde_json::from_str("{}").unwrap();
+        assert_eq!(lease.wait_ms, None);
+        for s in ["queued", "running", "done", "failed", "cancelled"] {
+            let state = JobState::parse(s).unwrap();
+            assert_eq!(serde_json::to_value(state).unwrap(), s);
+        }
+    }
+}
