@@ -9,7 +9,7 @@
 //!   [`TilePixels`]: sample `(row * width + col) * 3 + channel`.
 //! - The EXR file is one part, scanlines in increasing order, ZIP compression (16 lines per
 //!   block), channels `R,G,B` (= `total`), `surface.R/G/B` and `single_scatter.R/G/B`, all
-//!   32-bit float, and one text header attribute per entry of [`Image::attributes`].
+//!   32-bit float, and one text header attribute (UTF-8) per entry of [`Image::attributes`].
 //! - The bytes of a file are a pure function of the image: no timestamps, and header
 //!   attributes are written sorted by name (as OpenEXR's own library does), so the same image
 //!   always gives the same bytes.
@@ -359,11 +359,10 @@ fn exr_attribute(
             "the name is a standard OpenEXR attribute; choose another (e.g. prefix it `spindle.`)",
         ));
     }
-    // EXR text is one byte per character (Latin-1).
-    let name_text = exr::prelude::Text::new_or_none(name)
-        .ok_or_else(|| bad("the name must use only Latin-1 characters"))?;
-    let value_text = exr::prelude::Text::new_or_none(value)
-        .ok_or_else(|| bad("the value must use only Latin-1 characters"))?;
+    // EXR text is a byte string; we store UTF-8, as OpenEXR tools commonly expect, so any
+    // value (a file path, a warning with an η in it) can be recorded.
+    let text = |s: &str| exr::prelude::Text::from_slice_unchecked(s.as_bytes());
+    let (name_text, value_text) = (text(name), text(value));
     Ok((name_text, exr::prelude::AttributeValue::Text(value_text)))
 }
 
@@ -485,10 +484,19 @@ fn read_exr_from(bytes: &[u8], path: &str) -> Result<Image, ImageError> {
         if let AttributeValue::Text(text) = value {
             image
                 .attributes
-                .insert(name.chars().collect(), text.chars().collect());
+                .insert(text_to_string(name), text_to_string(text));
         }
     }
     Ok(image)
+}
+
+/// EXR text as a string: UTF-8 as spindle writes it, or else Latin-1 (one byte per character,
+/// the other common reading).
+fn text_to_string(text: &exr::prelude::Text) -> String {
+    match std::str::from_utf8(text.bytes()) {
+        Ok(s) => s.to_string(),
+        Err(_) => text.chars().collect(),
+    }
 }
 
 /// Writes `bytes` to `path` so that `path` holds either its old content or all of `bytes`:
@@ -695,6 +703,11 @@ mod tests {
         image
             .attributes
             .insert("spindle.json".into(), r#"{"a": [1, 2]}"#.into());
+        // Any Unicode, and a NUL inside a value, survive (values are UTF-8 byte strings).
+        image
+            .attributes
+            .insert("spindle.η".into(), "η = 1.5, 日本/scène.json".into());
+        image.attributes.insert("spindle.nul".into(), "a\0b".into());
 
         image.write_exr(&path).expect("written");
         let back = read_exr(&path).expect("read");
@@ -772,8 +785,7 @@ mod tests {
             ("", "x", "empty"),
             ("channels", "x", "standard"),
             ("comments", "x", "standard"),
-            ("spindle.η", "x", "Latin-1"),
-            ("spindle.note", "η = 1.5", "Latin-1"),
+            (&"x".repeat(256), "x", "255"),
         ] {
             let mut image = Image::new(2, 2);
             image.attributes.insert(name.into(), value.into());
