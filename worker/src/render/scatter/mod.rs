@@ -4,6 +4,8 @@
 //! until then this is the documented empty `single_scatter` layer of issue 2: every segment
 //! contributes black. The transport code already hands every camera segment here.
 
+pub mod descent;
+pub mod light_sample;
 pub mod prune;
 
 use spindle_common::stats::RenderStats;
