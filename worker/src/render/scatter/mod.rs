@@ -1,8 +1,26 @@
-//! Single scattering along a camera segment inside a medium.
+//! Single scattering along a camera segment inside a medium ([H15], physics.md).
+//!
+//! The per-triangle mathematics lives here, in f64 and independent of the scene: a triangle with
+//! interpolated normals and the function f whose zeros are refraction paths ([`patch`]), the fixed
+//! ends of a path ([`ends`]), the damped Newton solver ([`solve`]), the distance factor D
+//! ([`distance`]) and the contribution of one path ([`contribution`]).
+//!
+//! Sign conventions, stated once for all of these modules: η = n_medium / n_outside > 1 (the
+//! medium is denser); the light is outside; the shading normal points outward, toward the light;
+//! the camera segment is `V(t) = origin + t·dir` with `dir` a unit vector, so t is a distance.
 //!
 //! The integrators (interval, point sampling, straight line, reference, auto) land with issue 3;
-//! until then this is the documented empty `single_scatter` layer of issue 2: every segment
-//! contributes black. The transport code already hands every camera segment here.
+//! until then [`single_scatter`] is the documented empty `single_scatter` layer of issue 2: every
+//! segment contributes black. The transport code already hands every camera segment here.
+
+pub mod contribution;
+pub mod distance;
+pub mod ends;
+pub mod patch;
+pub mod solve;
+
+#[cfg(test)]
+pub(crate) mod ground_truth;
 
 pub mod descent;
 pub mod light_sample;
