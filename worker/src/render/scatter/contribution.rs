@@ -6,8 +6,6 @@
 //! therefore includes the η² of the irradiance inside the medium (physics.md eq. 1) and does NOT
 //! include `T(V_min)`: the two cancel the throughput's 1/η² exactly as [H15] eq. 10 assumes.
 
-use glam::DVec3;
-
 use super::ends::PathEnds;
 use super::solve::RefractionPath;
 use crate::render::Rgb;
@@ -37,6 +35,7 @@ mod tests {
     use crate::render::scatter::ground_truth::gauss_legendre;
     use crate::render::scatter::patch::TrianglePatch;
     use crate::render::scatter::solve::{NewtonSettings, solve_at, straight_line_guess};
+    use glam::DVec3;
 
     /// The physics.md §1.5 end-to-end flat-plane integral: segment (0.3, −0.2, −0.05) →
     /// (0.1, 0.1, −3.0), light (1.7, 0.9, 1.3), η = 1.5, σ_s = 0.5, σ_t = 0.7, HG g = 0.3, I = 1,

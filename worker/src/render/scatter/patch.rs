@@ -107,7 +107,7 @@ impl Residual {
             }
         }
         let scale = self.jt.length() + self.ja.length() + self.jb.length();
-        if !(g.length() > 1e-14 * scale * scale) {
+        if g.length().is_nan() || g.length() <= 1e-14 * scale * scale {
             return None;
         }
         let oriented = self.oriented_tangent();
@@ -159,7 +159,7 @@ impl TrianglePatch {
             .length_squared()
             .max(e2.length_squared())
             .max((e2 - e1).length_squared());
-        if !(double_area > DEGENERATE * longest) {
+        if double_area.is_nan() || double_area <= DEGENERATE * longest {
             return None;
         }
         let inv = 1.0 / (double_area * double_area);
@@ -231,7 +231,8 @@ impl TrianglePatch {
         let d_v = to_v.length();
         let d_l = to_l.length();
         let normal_len = n.length();
-        if !(d_v > 0.0 && d_l > 0.0 && normal_len > 0.0) || !d_v.is_finite() || !d_l.is_finite() {
+        let usable = |x: f64| x.is_finite() && x > 0.0;
+        if !(usable(d_v) && usable(d_l) && usable(normal_len)) {
             return None;
         }
         let omega_v = to_v / d_v;
@@ -239,7 +240,7 @@ impl TrianglePatch {
         let normal_s = n / normal_len;
         let h = ends.eta * omega_v + omega_l;
         let h_len = h.length();
-        if !(h_len > 1e-300) {
+        if h_len.is_nan() || h_len <= 1e-300 {
             return None;
         }
         let h_unit = h / h_len;

@@ -157,7 +157,7 @@ pub fn newton(
         let (auu, auv, avv) = (ju.dot(ju), ju.dot(jv), jv.dot(jv));
         let (gu, gv) = (ju.dot(r.f), jv.dot(r.f));
         let trace = auu + avv;
-        if !(trace > 0.0) || !trace.is_finite() {
+        if !trace.is_finite() || trace <= 0.0 {
             return (None, evaluations);
         }
         let mut accepted = None;
@@ -174,7 +174,7 @@ pub fn newton(
             attempt += 1;
             let (a11, a22) = (auu + lambda, avv + lambda);
             let det = a11 * a22 - auv * auv;
-            if !(det > 1e-24 * a11 * a22) || !det.is_finite() {
+            if !det.is_finite() || det <= 1e-24 * a11 * a22 {
                 continue;
             }
             let mut du = -(a22 * gu - auv * gv) / det * shrink;
@@ -298,7 +298,7 @@ impl RefractionPath {
             return None;
         }
         let d_factor = distance_factor(patch, ends.eta, r);
-        if !(d_factor > 0.0) || !d_factor.is_finite() {
+        if !d_factor.is_finite() || d_factor <= 0.0 {
             return None;
         }
         Some(RefractionPath {
@@ -342,7 +342,7 @@ pub fn straight_line_guess(patch: &TrianglePatch, ends: &PathEnds, t: f64) -> Op
     let dv = patch.plane_distance(v);
     let dl = patch.plane_distance(ends.light);
     let denom = dl - dv;
-    if !(denom.abs() > 0.0) {
+    if denom.is_nan() || denom == 0.0 {
         return None;
     }
     let s = (-dv / denom).clamp(0.0, 1.0);
@@ -427,7 +427,7 @@ pub fn plane_refraction_guess(
 /// line is parallel to the plane or the light is behind the shading normal there.
 pub fn plane_piercing(patch: &TrianglePatch, ends: &PathEnds) -> Option<([f64; 3], [f64; 3])> {
     let r_dot_n = ends.dir.dot(patch.normal_g);
-    if !(r_dot_n.abs() > 1e-12) {
+    if r_dot_n.is_nan() || r_dot_n.abs() <= 1e-12 {
         return None;
     }
     let t_p = -patch.plane_distance(ends.origin) / r_dot_n;
@@ -435,12 +435,12 @@ pub fn plane_piercing(patch: &TrianglePatch, ends: &PathEnds) -> Option<([f64; 3
     let (a, b) = patch.barycentric(v);
     let n = patch.normal(a, b).try_normalize()?;
     let incoming = (v - ends.light).try_normalize()?;
-    if !(incoming.dot(n) < 0.0) {
+    if incoming.dot(n).is_nan() || incoming.dot(n) >= 0.0 {
         return None;
     }
     let w = fresnel::refract(incoming, n, ends.eta)?;
     let w_dot_n = w.dot(patch.normal_g);
-    if !(w_dot_n < -1e-12) {
+    if w_dot_n.is_nan() || w_dot_n >= -1e-12 {
         return None;
     }
     let dp_dt = ends.dir - (r_dot_n / w_dot_n) * w;
