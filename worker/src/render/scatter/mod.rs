@@ -14,17 +14,16 @@
 //! segment contributes black. The transport code already hands every camera segment here.
 
 pub mod contribution;
+pub mod descent;
 pub mod distance;
 pub mod ends;
+pub mod light_sample;
 pub mod patch;
+pub mod prune;
 pub mod solve;
 
 #[cfg(test)]
 pub(crate) mod ground_truth;
-
-pub mod descent;
-pub mod light_sample;
-pub mod prune;
 
 use spindle_common::stats::RenderStats;
 
