@@ -3,7 +3,8 @@
 //! The per-triangle mathematics lives here, in f64 and independent of the scene: a triangle with
 //! interpolated normals and the function f whose zeros are refraction paths ([`patch`]), the fixed
 //! ends of a path ([`ends`]), the damped Newton solver ([`solve`]), the distance factor D
-//! ([`distance`]) and the contribution of one path ([`contribution`]).
+//! ([`distance`]) and the contribution of one path ([`contribution`]); the interval method's edge
+//! crossings ([`edge`]) and per-triangle monotone branches, folds included ([`interval`]).
 //!
 //! Sign conventions, stated once for all of these modules: η = n_medium / n_outside > 1 (the
 //! medium is denser); the light is outside; the shading normal points outward, toward the light;
@@ -16,10 +17,13 @@
 pub mod contribution;
 pub mod descent;
 pub mod distance;
+pub mod edge;
 pub mod ends;
+pub mod interval;
 pub mod light_sample;
 pub mod patch;
 pub mod prune;
+pub mod small_list;
 pub mod solve;
 
 #[cfg(test)]

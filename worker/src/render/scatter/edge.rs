@@ -1,0 +1,306 @@
+//! Where the solution curve of `f(t, a, b) = 0` crosses the edges of a triangle ([H15] §3.2.2–3.2.3).
+//!
+//! The crossings bound each triangle's contribution in t. Each edge (a = 0, b = 0, a + b = 1) is
+//! first scanned for sign changes of a scalar that vanishes exactly where the edge point's refracted
+//! light ray meets the camera line, so that every crossing is found — including a second crossing
+//! of the same edge, which [H15]'s Algorithm 1 needs a second pass for. Each bracket is then
+//! solved exactly by the damped Newton on the edge, in `(t, s)`, and classified as a lower or an
+//! upper bound of t from the curve's tangent (physics.md §2.3 rules).
+
+use spindle_common::stats::RenderStats;
+
+use super::ends::PathEnds;
+use super::patch::{Residual, TrianglePatch};
+use super::small_list::SmallList;
+use super::solve::{NewtonSettings, Slice, newton};
+use crate::render::fresnel;
+
+/// The three edges of a triangle in barycentric coordinates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Edge {
+    /// a = 0, from P0 (s = 0) to P2 (s = 1); s = b.
+    A0,
+    /// b = 0, from P0 (s = 0) to P1 (s = 1); s = a.
+    B0,
+    /// a + b = 1, from P1 (s = 0) to P2 (s = 1); s = b, a = 1 − s.
+    Ab1,
+}
+
+/// Sign changes looked for along each edge (the scan resolves crossings further apart than this).
+const EDGE_SCAN: usize = 16;
+
+impl Edge {
+    /// All three edges.
+    pub const ALL: [Edge; 3] = [Edge::A0, Edge::B0, Edge::Ab1];
+
+    /// `(a, b)` of the edge point with parameter s.
+    #[inline]
+    pub fn barycentric(self, s: f64) -> (f64, f64) {
+        match self {
+            Edge::A0 => (0.0, s),
+            Edge::B0 => (s, 0.0),
+            Edge::Ab1 => (1.0 - s, s),
+        }
+    }
+
+    /// The slice of parameter space on this edge, with slice coordinates `(u, v) = (t, s)`.
+    pub fn slice(self) -> Slice {
+        match self {
+            Edge::A0 => Slice {
+                origin: [0.0; 3],
+                du: [1.0, 0.0, 0.0],
+                dv: [0.0, 0.0, 1.0],
+            },
+            Edge::B0 => Slice {
+                origin: [0.0; 3],
+                du: [1.0, 0.0, 0.0],
+                dv: [0.0, 1.0, 0.0],
+            },
+            Edge::Ab1 => Slice {
+                origin: [0.0, 1.0, 0.0],
+                du: [1.0, 0.0, 0.0],
+                dv: [0.0, -1.0, 1.0],
+            },
+        }
+    }
+
+    /// The component of a parameter-space direction `g = (g_t, g_a, g_b)` pointing into the
+    /// triangle across this edge.
+    #[inline]
+    pub fn inward(self, g: [f64; 3]) -> f64 {
+        match self {
+            Edge::A0 => g[1],
+            Edge::B0 => g[2],
+            Edge::Ab1 => -(g[1] + g[2]),
+        }
+    }
+}
+
+/// Whether an edge crossing is a lower or an upper bound of t on the triangle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Bound {
+    /// The curve enters the triangle as t increases: t is a minimum.
+    Lower,
+    /// The curve leaves the triangle as t increases: t is a maximum.
+    Upper,
+}
+
+/// One point where the solution curve crosses an edge inside the edge's extent.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Crossing {
+    /// Which edge.
+    pub edge: Edge,
+    /// The parameter-space point `(t, a, b)`.
+    pub x: [f64; 3],
+    /// The oriented curve tangent there (see [`Residual::tangent`]).
+    pub g: [f64; 3],
+    /// Lower or upper bound of t, from the tangent.
+    pub bound: Bound,
+}
+
+/// Classifies a crossing from the curve tangent g (physics.md §2.3, [H15] §3.2.3): on a = 0, t is
+/// a maximum if `g_t/g_a < 0`; on b = 0 if `g_t/g_b < 0`; on a + b = 1 if `g_t/(g_a+g_b) > 0`. All
+/// three say: t is a maximum when moving into the triangle decreases t. None when the curve is
+/// tangent to the edge or to t = const there (no decision possible).
+pub fn classify(edge: Edge, g: [f64; 3]) -> Option<Bound> {
+    let product = g[0] * edge.inward(g);
+    if product > 0.0 {
+        Some(Bound::Lower)
+    } else if product < 0.0 {
+        Some(Bound::Upper)
+    } else {
+        None
+    }
+}
+
+/// The scalar whose zeros along an edge are the crossings: the light ray from L refracted into the
+/// medium at the edge point P (shading normal there) meets the camera line iff the two lines are
+/// coplanar, `(P − origin)·(r̂ × w) = 0`, normalised by `‖r̂ × w‖`. Also returns the camera
+/// parameter t of the meeting point and the distance λ from P along w (positive = inside).
+fn skew(patch: &TrianglePatch, ends: &PathEnds, a: f64, b: f64) -> Option<(f64, f64, f64)> {
+    let p = patch.point(a, b);
+    let n = patch.normal(a, b).try_normalize()?;
+    let incoming = (p - ends.light).try_normalize()?;
+    if incoming.dot(n) >= 0.0 {
+        return None;
+    }
+    let w = fresnel::refract(incoming, n, ends.eta)?;
+    let cross = ends.dir.cross(w);
+    let len = cross.length();
+    if len.is_nan() || len <= 1e-12 {
+        return None;
+    }
+    let rel = p - ends.origin;
+    let value = rel.dot(cross) / len;
+    // Closest points of the lines origin + t·r̂ and p + λ·w.
+    let rw = ends.dir.dot(w);
+    let denom = 1.0 - rw * rw;
+    let t = (rel.dot(ends.dir) - rw * rel.dot(w)) / denom;
+    let lambda = (rw * rel.dot(ends.dir) - rel.dot(w)) / denom;
+    Some((value, t, lambda))
+}
+
+/// Appends to `out` every crossing of the curve with `edge` at `t ∈ t_range` (beyond the list's
+/// capacity they are dropped). Newton evaluations and failures go to `stats`.
+pub fn edge_crossings<const N: usize>(
+    patch: &TrianglePatch,
+    ends: &PathEnds,
+    edge: Edge,
+    t_range: (f64, f64),
+    tolerance: f64,
+    out: &mut SmallList<Crossing, N>,
+    stats: &mut RenderStats,
+) {
+    let scan = |s: f64| {
+        let (a, b) = edge.barycentric(s);
+        skew(patch, ends, a, b)
+    };
+    let mut previous: Option<(f64, (f64, f64, f64))> = None;
+    for i in 0..=EDGE_SCAN {
+        let s = i as f64 / EDGE_SCAN as f64;
+        let current = scan(s).map(|v| (s, v));
+        if let (Some((s0, v0)), Some((s1, v1))) = (previous, current) {
+            // A sign change with the meeting point in front of P (inside the medium).
+            if v0.0 * v1.0 <= 0.0 && (v0.2 > 0.0 || v1.2 > 0.0) && v0.0 != v1.0 {
+                let theta = v0.0 / (v0.0 - v1.0);
+                let s_guess = s0 + theta * (s1 - s0);
+                let t_guess = v0.1 + theta * (v1.1 - v0.1);
+                let settings = NewtonSettings::new(tolerance, t_range);
+                let t_start = t_guess.clamp(t_range.0, t_range.1);
+                let (zero, spent) =
+                    newton(patch, ends, &edge.slice(), (t_start, s_guess), &settings);
+                stats.newton_iterations += spent as u64;
+                match zero {
+                    Some(z) => {
+                        let (t, s) = z.uv;
+                        if (-1e-12..=1.0 + 1e-12).contains(&s) && t >= t_range.0 && t <= t_range.1 {
+                            push_crossing(out, edge, z.x, &z.residual);
+                        }
+                    }
+                    None => stats.newton_failures += 1,
+                }
+            }
+        }
+        previous = current;
+    }
+}
+
+/// Adds a crossing unless it is a duplicate of one already found or has no usable tangent.
+fn push_crossing<const N: usize>(
+    out: &mut SmallList<Crossing, N>,
+    edge: Edge,
+    x: [f64; 3],
+    r: &Residual,
+) {
+    let Some(g) = r.tangent() else { return };
+    let Some(bound) = classify(edge, g) else {
+        return;
+    };
+    let duplicate = out.iter().any(|c| {
+        c.edge == edge
+            && (c.x[0] - x[0]).abs() <= 1e-9 * (1.0 + x[0].abs())
+            && (c.x[1] - x[1]).abs() <= 1e-9
+            && (c.x[2] - x[2]).abs() <= 1e-9
+    });
+    if !duplicate {
+        out.push(Crossing { edge, x, g, bound });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::scatter::ground_truth::SplitMix;
+    use glam::DVec3;
+
+    /// Test (8), second half: at every edge crossing the lower/upper classification from the
+    /// tangent agrees with brute force — re-solving at t ± dt from the crossing and checking
+    /// which side of the edge the solution moved to — on 40 seeded curved configurations.
+    #[test]
+    fn classification_agrees_with_brute_force() {
+        let mut rng = SplitMix(11);
+        let mut checked = 0;
+        let mut configurations = 0;
+        while configurations < 40 {
+            let n = [0, 1, 2]
+                .map(|_| DVec3::new(rng.range(-0.4, 0.4), rng.range(-0.4, 0.4), 1.0).normalize());
+            let patch = TrianglePatch::new(
+                [
+                    DVec3::new(-0.6, -0.5, 0.0),
+                    DVec3::new(0.7, -0.4, 0.05),
+                    DVec3::new(-0.2, 0.6, -0.03),
+                ],
+                n,
+            )
+            .unwrap();
+            let origin = DVec3::new(
+                rng.range(-1.5, 1.5),
+                rng.range(-1.5, 1.5),
+                rng.range(-1.5, -0.3),
+            );
+            let target = DVec3::new(
+                rng.range(-1.5, 1.5),
+                rng.range(-1.5, 1.5),
+                rng.range(-1.5, -0.3),
+            );
+            let Some(dir) = (target - origin).try_normalize() else {
+                continue;
+            };
+            let ends = PathEnds {
+                origin,
+                dir,
+                light: DVec3::new(
+                    rng.range(-2.0, 2.0),
+                    rng.range(-2.0, 2.0),
+                    rng.range(0.5, 3.0),
+                ),
+                eta: rng.range(1.1, 2.0),
+            };
+            let length = (target - origin).length();
+            configurations += 1;
+            let mut out: SmallList<Crossing, 8> = SmallList::default();
+            let mut stats = RenderStats::default();
+            for edge in Edge::ALL {
+                edge_crossings(
+                    &patch,
+                    &ends,
+                    edge,
+                    (0.0, length),
+                    1e-13,
+                    &mut out,
+                    &mut stats,
+                );
+            }
+            for c in out.iter() {
+                let dt = 1e-5;
+                let settings = NewtonSettings::new(1e-13, (0.0, length));
+                let inside_after = |t: f64| {
+                    let (zero, _) = newton(
+                        &patch,
+                        &ends,
+                        &Slice::fixed_t(t),
+                        (c.x[1], c.x[2]),
+                        &settings,
+                    );
+                    zero.map(|z| c.edge.inward([0.0, z.x[1] - c.x[1], z.x[2] - c.x[2]]) > 0.0)
+                };
+                let (Some(up), Some(down)) = (inside_after(c.x[0] + dt), inside_after(c.x[0] - dt))
+                else {
+                    continue;
+                };
+                let brute = match (down, up) {
+                    (false, true) => Bound::Lower,
+                    (true, false) => Bound::Upper,
+                    _ => continue, // tangent to the edge: no decision by brute force either
+                };
+                assert_eq!(
+                    brute, c.bound,
+                    "crossing {c:?}, patch {patch:?}, ends {ends:?}"
+                );
+                checked += 1;
+            }
+        }
+        println!("classified {checked} crossings");
+        assert!(checked >= 20, "only {checked} crossings checked");
+    }
+}

@@ -1,0 +1,75 @@
+//! A fixed-capacity list on the stack, so the per-triangle hot path does not allocate.
+
+/// Up to `N` values of `T`; pushing beyond the capacity drops the value and reports it.
+#[derive(Debug, Clone, Copy)]
+pub struct SmallList<T: Copy, const N: usize> {
+    items: [Option<T>; N],
+    len: usize,
+}
+
+impl<T: Copy, const N: usize> Default for SmallList<T, N> {
+    fn default() -> Self {
+        SmallList {
+            items: [None; N],
+            len: 0,
+        }
+    }
+}
+
+impl<T: Copy, const N: usize> SmallList<T, N> {
+    /// Appends `value`; false (and the value is dropped) when the list is full.
+    pub fn push(&mut self, value: T) -> bool {
+        if self.len < N {
+            self.items[self.len] = Some(value);
+            self.len += 1;
+            true
+        } else {
+            false
+        }
+    }
+
+    /// The number of values.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether the list holds no value.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The values in insertion order.
+    pub fn iter(&self) -> impl Iterator<Item = &T> {
+        self.items[..self.len].iter().flatten()
+    }
+
+    /// The value at `index`, if any.
+    pub fn get(&self, index: usize) -> Option<&T> {
+        self.items[..self.len].get(index).and_then(Option::as_ref)
+    }
+
+    /// Mutable access to the value at `index`, if any.
+    pub fn get_mut(&mut self, index: usize) -> Option<&mut T> {
+        self.items[..self.len]
+            .get_mut(index)
+            .and_then(Option::as_mut)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn holds_up_to_capacity() {
+        let mut list: SmallList<u32, 2> = SmallList::default();
+        assert!(list.is_empty());
+        assert!(list.push(1) && list.push(2));
+        assert!(!list.push(3));
+        assert_eq!(list.iter().copied().collect::<Vec<_>>(), vec![1, 2]);
+        assert_eq!(list.len(), 2);
+        *list.get_mut(0).unwrap() = 5;
+        assert_eq!(list.get(0), Some(&5));
+        assert_eq!(list.get(2), None);
+    }
+}
