@@ -254,3 +254,48 @@ fn a_ray_escaping_an_open_mesh_leaves_the_object() {
         );
     }
 }
+
+#[test]
+fn lossless_glass_in_a_white_furnace_conserves_radiance() {
+    // A clear glass sphere in a uniform white background of radiance 1: at every interface the
+    // split weights F and 1 − F sum to 1 and the n² factors of entry and exit cancel, so every
+    // pixel sees at most 1; only paths cut by the depth limits lose anything (little, far from
+    // the silhouette). A wrong n² or Fresnel bookkeeping shows up as values far from 1.
+    let json = r#"{
+        "camera": { "position": [0, 0, 4], "look_at": [0, 0, 0], "fov_y": 32 },
+        "film": { "width": 24, "height": 24, "spp": 2 },
+        "background": [1, 1, 1],
+        "objects": [ { "shape": { "type": "icosphere", "radius": 1, "subdivisions": 5 },
+            "material": { "type": "dielectric", "eta": 1.5,
+                          "medium": { "sigma_t": [0, 0, 0], "albedo": [0, 0, 0] } } } ],
+        "integrator": { "max_depth": 40, "internal_reflections": 30 }
+    }"#;
+    let scene = Scene::build(&serde_json::from_str(json).unwrap(), &Assets::new()).unwrap();
+    let tile = render_tile(
+        &scene,
+        TileRect {
+            x: 0,
+            y: 0,
+            width: 24,
+            height: 24,
+        },
+    );
+    let (mut lo, mut hi) = (f32::MAX, f32::MIN);
+    for row in 0..24 {
+        for col in 0..24 {
+            let v = tile.total[(row * 24 + col) * 3];
+            lo = lo.min(v);
+            hi = hi.max(v);
+            // The central pixels see the sphere far from grazing: nearly lossless.
+            if (8..16).contains(&row) && (8..16).contains(&col) {
+                assert!((v - 1.0).abs() < 1e-4, "pixel {col},{row}: {v}");
+            }
+        }
+    }
+    println!(
+        "white furnace: pixels in [{lo}, {hi}], segments {}",
+        tile.stats.camera_segments
+    );
+    assert!(hi <= 1.0 + 1e-5, "radiance was created: {hi}");
+    assert!(lo > 0.999, "too much radiance was lost: {lo}");
+}
