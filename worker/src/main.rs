@@ -1,0 +1,98 @@
+//! `spindle-worker`: a farm worker process. A thin shell over [`spindle_worker::farm::run`]:
+//! parse the settings, set up logging and signals, run until SIGTERM or Ctrl-C.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::Parser;
+use spindle_worker::farm::{self, Config};
+use tokio_util::sync::CancellationToken;
+
+/// Renders tiles for a spindle coordinator.
+#[derive(Debug, Parser)]
+#[command(name = "spindle-worker", version, about)]
+struct Args {
+    /// The coordinator's URL, e.g. http://10.0.0.5:7878.
+    #[arg(long, env = "SPINDLE_COORDINATOR")]
+    coordinator: String,
+    /// Render threads (default: every core).
+    #[arg(long, env = "SPINDLE_WORKER_THREADS")]
+    threads: Option<usize>,
+    /// The name this worker registers under (default: HOSTNAME-PID).
+    #[arg(long, env = "SPINDLE_WORKER_NAME")]
+    name: Option<String>,
+    /// Read the worker token from this file instead of SPINDLE_WORKER_TOKEN.
+    #[arg(long, env = "SPINDLE_WORKER_TOKEN_FILE")]
+    token_file: Option<PathBuf>,
+}
+
+fn main() -> ExitCode {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info")),
+        )
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::stderr().is_terminal())
+        .init();
+    match real_main(Args::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("spindle-worker: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn real_main(args: Args) -> anyhow::Result<()> {
+    // The token is read from the environment or a file, never from the command line, where
+    // every user of the machine could see it.
+    let token = match &args.token_file {
+        Some(path) => Some(
+            std::fs::read_to_string(path)
+                .with_context(|| format!("reading the worker token from {}", path.display()))?,
+        ),
+        None => std::env::var("SPINDLE_WORKER_TOKEN").ok(),
+    };
+    let config = Config::new(&args.coordinator, token, args.name, args.threads)?;
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .context("starting the async runtime")?;
+    runtime.block_on(async {
+        let shutdown = CancellationToken::new();
+        tokio::spawn(stop_on_signal(shutdown.clone()));
+        farm::run(config, shutdown).await.map(drop)
+    })
+}
+
+/// Cancels `shutdown` at the first SIGTERM or Ctrl-C.
+async fn stop_on_signal(shutdown: CancellationToken) {
+    let ctrl_c = tokio::signal::ctrl_c();
+    #[cfg(unix)]
+    {
+        let mut term =
+            match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+                Ok(s) => s,
+                Err(e) => {
+                    tracing::error!(error = %e, "cannot listen for SIGTERM");
+                    let _ = ctrl_c.await;
+                    shutdown.cancel();
+                    return;
+                }
+            };
+        tokio::select! {
+            _ = ctrl_c => {}
+            _ = term.recv() => {}
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = ctrl_c.await;
+    }
+    tracing::info!("stopping: no new leases; finishing the tile in hand");
+    shutdown.cancel();
+}
