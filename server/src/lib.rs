@@ -1,1 +1,204 @@
-//! placeholder
+//! The spindle coordinator: jobs, content-addressed assets, tiles leased to workers, and the
+//! final image assembled from their results.
+//!
+//! [`app`] builds the router for a [`AppState`] (tests drive it with `tower::ServiceExt`);
+//! [`run`] serves it on a listener until a shutdown future resolves. The `spindle-server`
+//! binary and the `spindle render` local farm are thin shells over these two. The coordinator
+//! never links the renderer: it moves tiles, it does not make them.
+#![forbid(unsafe_code)]
+
+pub mod api;
+pub mod assemble;
+pub mod assets;
+pub mod auth;
+pub mod config;
+pub mod db;
+pub mod error;
+pub mod extract;
+pub mod jobs;
+pub mod lease;
+pub mod limits;
+pub mod tile_store;
+
+use std::future::Future;
+use std::sync::{Arc, Mutex, MutexGuard};
+
+use anyhow::Context;
+use axum::Router;
+use tokio::sync::Notify;
+use tokio_util::sync::CancellationToken;
+
+pub use config::{Args, Config};
+pub use limits::Limits;
+
+use assets::AssetStore;
+use jobs::Farm;
+use tile_store::TileStore;
+
+/// Everything a request handler can reach; cheap to clone.
+#[derive(Clone)]
+pub struct AppState {
+    inner: Arc<Shared>,
+}
+
+struct Shared {
+    config: Config,
+    farm: Mutex<Farm>,
+    assets: AssetStore,
+    tiles: TileStore,
+    /// Woken when tiles may have become available (a job submitted, a tile failed).
+    work: Notify,
+    shutdown: CancellationToken,
+}
+
+impl AppState {
+    /// Opens (or creates) the data directory and the database, resumes every job found there,
+    /// and finishes any assembly a previous process did not. Needs a Tokio runtime.
+    pub async fn open(config: Config) -> anyhow::Result<AppState> {
+        let data = config.data_dir.clone();
+        let lease_ttl = config.lease_ttl;
+        let grace = config.restart_grace;
+        let (farm, assets, tiles) = tokio::task::spawn_blocking(move || {
+            std::fs::create_dir_all(&data)
+                .with_context(|| format!("creating the data directory {}", data.display()))?;
+            let db = db::open(&data.join("spindle.db"))
+                .with_context(|| format!("opening {}", data.join("spindle.db").display()))?;
+            let farm = Farm::load(db, lease_ttl, grace, tokio::time::Instant::now())?;
+            let assets = AssetStore::open(data.join("assets"))?;
+            let tiles = TileStore::open(data.join("jobs"))?;
+            anyhow::Ok((farm, assets, tiles))
+        })
+        .await??;
+        let jobs = farm.jobs.len();
+        let state = AppState {
+            inner: Arc::new(Shared {
+                config,
+                farm: Mutex::new(farm),
+                assets,
+                tiles,
+                work: Notify::new(),
+                shutdown: CancellationToken::new(),
+            }),
+        };
+        tracing::info!(jobs, data = %state.config().data_dir.display(), "coordinator state loaded");
+        state.assemble_complete_jobs();
+        Ok(state)
+    }
+
+    /// The configuration the coordinator runs with.
+    pub fn config(&self) -> &Config {
+        &self.inner.config
+    }
+
+    /// The farm, locked. Never held across an `.await`.
+    pub(crate) fn farm(&self) -> MutexGuard<'_, Farm> {
+        // Every change is written to the database before memory, and nothing on the request
+        // path panics; should a panic still poison the lock, the farm is as consistent as the
+        // last completed change, so carry on.
+        self.inner.farm.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    pub(crate) fn assets(&self) -> &AssetStore {
+        &self.inner.assets
+    }
+
+    pub(crate) fn tile_store(&self) -> &TileStore {
+        &self.inner.tiles
+    }
+
+    pub(crate) fn work_available(&self) {
+        self.inner.work.notify_waiters();
+    }
+
+    pub(crate) fn work_notified(&self) -> tokio::sync::futures::Notified<'_> {
+        self.inner.work.notified()
+    }
+
+    /// Ends long polls and makes `/readyz` answer 503; the server then drains.
+    pub fn begin_shutdown(&self) {
+        self.inner.shutdown.cancel();
+    }
+
+    pub(crate) fn is_shutting_down(&self) -> bool {
+        self.inner.shutdown.is_cancelled()
+    }
+
+    pub(crate) fn shutdown_signal(&self) -> tokio_util::sync::WaitForCancellationFuture<'_> {
+        self.inner.shutdown.cancelled()
+    }
+
+    pub(crate) async fn remove_job_files(&self, id: u64) -> Result<(), error::Error> {
+        let store = self.tile_store().clone();
+        tokio::task::spawn_blocking(move || store.remove_job(id))
+            .await
+            .map_err(anyhow::Error::from)??;
+        Ok(())
+    }
+
+    /// Starts writing the final image of every job whose tiles are all in.
+    pub(crate) fn assemble_complete_jobs(&self) {
+        let ids = self.farm().take_jobs_to_assemble();
+        for id in ids {
+            let state = self.clone();
+            tokio::spawn(async move { state.assemble(id).await });
+        }
+    }
+
+    async fn assemble(&self, id: u64) {
+        let prepared = {
+            let farm = self.farm();
+            farm.job(id)
+                .map(|job| (job.spec.clone(), job.stats))
+                .and_then(|(spec, stats)| Ok((spec, stats, farm.done_tiles(id)?)))
+        };
+        let Ok((spec, stats, tiles)) = prepared else {
+            return; // Deleted meanwhile.
+        };
+        let store = self.tile_store().clone();
+        let result = tokio::task::spawn_blocking(move || {
+            assemble::write_final(&store, id, &spec, &tiles, &stats)
+        })
+        .await
+        .map_err(anyhow::Error::from)
+        .and_then(|r| r)
+        .map_err(|e| {
+            tracing::error!(job = id, error = format!("{e:#}"), "assembly failed");
+            format!("{e:#}")
+        });
+        let finished = self.farm().finish_assembly(id, result);
+        if let Err(e) = finished {
+            tracing::error!(job = id, error = %e, "recording the end of assembly failed");
+        }
+        if self.farm().job(id).is_err() {
+            let _ = self.remove_job_files(id).await;
+        }
+    }
+}
+
+/// The coordinator's router.
+pub fn app(state: AppState) -> Router {
+    api::router(state)
+}
+
+/// Serves the coordinator on `listener` until `shutdown` resolves, then drains in-flight
+/// requests (long polls end at once). Refuses a non-loopback listener without both tokens.
+pub async fn run(
+    config: Config,
+    listener: tokio::net::TcpListener,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> anyhow::Result<()> {
+    let addr = listener.local_addr()?;
+    config.check_listen_address(addr)?;
+    let state = AppState::open(config).await?;
+    let router = app(state.clone());
+    tracing::info!(%addr, "spindle-server listening");
+    let draining = state.clone();
+    axum::serve(listener, router)
+        .with_graceful_shutdown(async move {
+            shutdown.await;
+            tracing::info!("shutting down");
+            draining.begin_shutdown();
+        })
+        .await?;
+    Ok(())
+}

@@ -1,0 +1,163 @@
+//! Content-addressed assets (mesh files): stored, checked and served by their blake3 hash.
+//!
+//! A client uploads each file once under its hash; scenes name files by path, and the job's
+//! asset table maps each path to a hash. The coordinator stores bytes only under
+//! `DATA/assets/<hash>` after checking the hash of what arrived, and never opens a path a
+//! client gave it. Uploads stream to a temporary file (so a large mesh is never held in
+//! memory), hashing as they go; a mismatch is a 400 and leaves nothing behind.
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::sync::Mutex;
+
+use axum::body::Body;
+use futures_util::TryStreamExt;
+use spindle_common::protocol::is_hash;
+use tokio::io::AsyncWriteExt;
+
+use crate::error::Error;
+use crate::limits::count_obj_triangles;
+use crate::tile_store::sync_dir;
+
+/// The asset directory and a cache of triangle counts.
+#[derive(Debug)]
+pub struct AssetStore {
+    dir: PathBuf,
+    tmp: PathBuf,
+    triangles: Mutex<HashMap<String, u64>>,
+}
+
+impl AssetStore {
+    /// Opens `dir` (creating it), discarding uploads a previous process left unfinished.
+    pub fn open(dir: PathBuf) -> std::io::Result<AssetStore> {
+        let tmp = dir.join("tmp");
+        if tmp.exists() {
+            std::fs::remove_dir_all(&tmp)?;
+        }
+        std::fs::create_dir_all(&tmp)?;
+        Ok(AssetStore {
+            dir,
+            tmp,
+            triangles: Mutex::new(HashMap::new()),
+        })
+    }
+
+    /// The file of a well-formed hash.
+    pub fn file(&self, hash: &str) -> Result<PathBuf, Error> {
+        if !is_hash(hash) {
+            return Err(Error::BadRequest(format!(
+                "hash: {hash:?} is not a blake3 hash (64 lowercase hex digits)"
+            )));
+        }
+        Ok(self.dir.join(hash))
+    }
+
+    /// Is the asset stored?
+    pub fn has(&self, hash: &str) -> Result<bool, Error> {
+        Ok(self.file(hash)?.is_file())
+    }
+
+    /// The asset's bytes.
+    pub async fn read(&self, hash: &str) -> Result<Vec<u8>, Error> {
+        let path = self.file(hash)?;
+        match tokio::fs::read(&path).await {
+            Ok(bytes) => Ok(bytes),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                Err(Error::NotFound(format!("asset {hash} is not stored")))
+            }
+            Err(e) => Err(e.into()),
+        }
+    }
+
+    /// Streams `body` into the store under `hash`, checking the bytes' hash; returns their size.
+    /// The body must already carry the route's size limit (`into_limited_body`).
+    pub async fn store(&self, hash: &str, body: Body) -> Result<u64, Error> {
+        let path = self.file(hash)?;
+        let tmp = tempfile::Builder::new()
+            .prefix(hash)
+            .tempfile_in(&self.tmp)?
+            .into_temp_path();
+        let result = self.stream_to(&tmp, body).await;
+        let (size, actual) = match result {
+            Ok(v) => v,
+            Err(e) => {
+                let _ = tmp.close();
+                return Err(e);
+            }
+        };
+        if actual != hash {
+            let _ = tmp.close();
+            return Err(Error::BadRequest(format!(
+                "body: the bytes hash to {actual}, not {hash}"
+            )));
+        }
+        tmp.persist(&path).map_err(|e| Error::from(e.error))?;
+        let dir = self.dir.clone();
+        tokio::task::spawn_blocking(move || sync_dir(&dir))
+            .await
+            .map_err(anyhow::Error::from)??;
+        Ok(size)
+    }
+
+    async fn stream_to(&self, tmp: &std::path::Path, body: Body) -> Result<(u64, String), Error> {
+        let mut file = tokio::fs::File::create(tmp).await?;
+        let mut hasher = blake3::Hasher::new();
+        let mut size = 0u64;
+        let mut stream = body.into_data_stream();
+        loop {
+            match stream.try_next().await {
+                Ok(Some(chunk)) => {
+                    size += chunk.len() as u64;
+                    hasher.update(&chunk);
+                    file.write_all(&chunk).await?;
+                }
+                Ok(None) => break,
+                Err(e) => return Err(body_error(e)),
+            }
+        }
+        file.flush().await?;
+        file.sync_all().await?;
+        Ok((size, hasher.finalize().to_hex().to_string()))
+    }
+
+    /// Triangles of a stored OBJ asset (counted once, then cached).
+    pub async fn obj_triangles(&self, hash: &str) -> Result<u64, Error> {
+        if let Some(&n) = self.lock_cache().get(hash) {
+            return Ok(n);
+        }
+        let path = self.file(hash)?;
+        let count = tokio::task::spawn_blocking(move || {
+            std::fs::read(&path).map(|bytes| count_obj_triangles(&bytes))
+        })
+        .await
+        .map_err(anyhow::Error::from)?;
+        let count = match count {
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                return Err(Error::BadRequest(format!(
+                    "asset {hash} is not uploaded (PUT /v1/assets/{hash} first)"
+                )));
+            }
+            Err(e) => return Err(e.into()),
+        };
+        self.lock_cache().insert(hash.to_string(), count);
+        Ok(count)
+    }
+
+    fn lock_cache(&self) -> std::sync::MutexGuard<'_, HashMap<String, u64>> {
+        // The cache holds plain numbers; a panic elsewhere cannot leave it inconsistent.
+        self.triangles.lock().unwrap_or_else(|p| p.into_inner())
+    }
+}
+
+/// Maps a failed request body to the client's error: over the size limit is 413.
+pub fn body_error(e: axum::Error) -> Error {
+    let mut source: Option<&(dyn std::error::Error + 'static)> = Some(&e);
+    while let Some(s) = source {
+        if s.is::<http_body_util::LengthLimitError>() {
+            return Error::TooLarge("body: larger than this route accepts".into());
+        }
+        source = s.source();
+    }
+    Error::BadRequest(format!("body: {e}"))
+}

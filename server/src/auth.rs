@@ -1,0 +1,74 @@
+//! Bearer tokens: one for clients (`SPINDLE_TOKEN`), one for workers (`SPINDLE_WORKER_TOKEN`).
+//!
+//! Each route belongs to one [`Role`]; a middleware checks the `Authorization: Bearer …`
+//! header against that role's token before the handler runs. A role without a configured token
+//! is open — [`crate::config::Config::check_listen_address`] allows that only on loopback.
+
+use axum::extract::{Request, State};
+use axum::http::header::AUTHORIZATION;
+use axum::middleware::Next;
+use axum::response::{IntoResponse, Response};
+
+use crate::AppState;
+use crate::error::Error;
+
+/// Who may call a route.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Role {
+    /// Anyone (health, readiness, the API document).
+    Public,
+    /// Users submitting and fetching jobs.
+    Client,
+    /// Worker processes.
+    Worker,
+}
+
+/// Middleware: lets the request through when it carries the token of `role`.
+pub async fn require(
+    State((state, role)): State<(AppState, Role)>,
+    request: Request,
+    next: Next,
+) -> Response {
+    let expected = match role {
+        Role::Public => None,
+        Role::Client => state.config().client_token.as_deref(),
+        Role::Worker => state.config().worker_token.as_deref(),
+    };
+    if let Some(expected) = expected {
+        let given = request
+            .headers()
+            .get(AUTHORIZATION)
+            .and_then(|v| v.to_str().ok())
+            .and_then(|v| v.strip_prefix("Bearer "));
+        match given {
+            None => {
+                return Error::Unauthorized("missing bearer token (Authorization: Bearer …)")
+                    .into_response();
+            }
+            Some(given) if !same(given.trim().as_bytes(), expected.as_bytes()) => {
+                return Error::Unauthorized("wrong token for this route").into_response();
+            }
+            Some(_) => {}
+        }
+    }
+    next.run(request).await
+}
+
+/// Compares in time independent of where the inputs differ, so a token cannot be guessed a
+/// byte at a time from response times.
+fn same(a: &[u8], b: &[u8]) -> bool {
+    if a.len() != b.len() {
+        return false;
+    }
+    a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn comparison() {
+        assert!(super::same(b"abc", b"abc"));
+        assert!(!super::same(b"abc", b"abd"));
+        assert!(!super::same(b"abc", b"abcd"));
+    }
+}

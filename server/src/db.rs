@@ -1,0 +1,398 @@
+//! The coordinator's durable state in SQLite: jobs, workers, leased and finished tiles, and
+//! tile failures.
+//!
+//! The database is the truth a restarted coordinator resumes from; the in-memory farm
+//! ([`crate::jobs::Farm`]) mirrors it and every change is written here first. WAL with
+//! `synchronous = NORMAL`: a commit survives the process being killed at any moment (it is in
+//! the OS's page cache) without an fsync per tile. Schema changes are numbered migrations
+//! applied in order and tracked with `PRAGMA user_version`.
+//!
+//! Tile pixels are not stored here but in files (see [`crate::tile_store`]); a `done` row names
+//! the file by its content hash, and the file is synced before the row is committed.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use rusqlite::{Connection, OptionalExtension, Transaction, params};
+use spindle_common::protocol::JobState;
+use spindle_common::stats::RenderStats;
+
+/// Migrations, in order; entry `i` moves the schema from version `i` to `i + 1`.
+const MIGRATIONS: &[&str] = &[r#"
+    CREATE TABLE jobs (
+        id              INTEGER PRIMARY KEY AUTOINCREMENT,
+        spec            TEXT    NOT NULL,   -- protocol::JobSpec as JSON
+        priority        INTEGER NOT NULL,
+        state           TEXT    NOT NULL,
+        error           TEXT,
+        idempotency_key TEXT    UNIQUE,
+        request_hash    TEXT    NOT NULL,   -- blake3 of the canonical request, for key reuse
+        created_ms      INTEGER NOT NULL,
+        started_ms      INTEGER,
+        finished_ms     INTEGER
+    );
+    CREATE TABLE workers (
+        id            INTEGER PRIMARY KEY AUTOINCREMENT,
+        name          TEXT    NOT NULL,
+        threads       INTEGER NOT NULL,
+        registered_ms INTEGER NOT NULL
+    );
+    -- A row exists once a tile has been leased; pending tiles without a row have epoch 0.
+    CREATE TABLE tiles (
+        job_id     INTEGER NOT NULL REFERENCES jobs(id) ON DELETE CASCADE,
+        tile_index INTEGER NOT NULL,
+        state      TEXT    NOT NULL CHECK (state IN ('pending', 'leased', 'done')),
+        epoch      INTEGER NOT NULL,
+        worker_id  INTEGER,
+        hash       TEXT,               -- protocol::pixel_hash, when done
+        stats      TEXT,               -- RenderStats as JSON, when done
+        PRIMARY KEY (job_id, tile_index)
+    );
+    CREATE TABLE tile_failures (
+        job_id     INTEGER NOT NULL REFERENCES jobs(id) ON DELETE CASCADE,
+        tile_index INTEGER NOT NULL,
+        worker_id  INTEGER NOT NULL,
+        epoch      INTEGER NOT NULL,
+        reason     TEXT    NOT NULL,
+        PRIMARY KEY (job_id, tile_index, worker_id)
+    );
+"#];
+
+/// Opens (creating if needed) the database at `path` and brings its schema up to date.
+pub fn open(path: &Path) -> anyhow::Result<Connection> {
+    let mut conn = Connection::open(path)?;
+    conn.pragma_update(None, "journal_mode", "WAL")?;
+    conn.pragma_update(None, "synchronous", "NORMAL")?;
+    conn.pragma_update(None, "foreign_keys", true)?;
+    conn.busy_timeout(std::time::Duration::from_secs(5))?;
+    migrate(&mut conn)?;
+    Ok(conn)
+}
+
+fn migrate(conn: &mut Connection) -> anyhow::Result<()> {
+    let version: usize = conn.pragma_query_value(None, "user_version", |r| r.get(0))?;
+    if version > MIGRATIONS.len() {
+        anyhow::bail!(
+            "the database has schema version {version}, newer than this coordinator knows ({})",
+            MIGRATIONS.len()
+        );
+    }
+    for (i, sql) in MIGRATIONS.iter().enumerate().skip(version) {
+        let tx = conn.transaction()?;
+        tx.execute_batch(sql)?;
+        tx.pragma_update(None, "user_version", i + 1)?;
+        tx.commit()?;
+    }
+    Ok(())
+}
+
+/// A job row as stored.
+#[derive(Debug, Clone)]
+pub struct JobRow {
+    pub id: u64,
+    pub spec_json: String,
+    pub priority: i32,
+    pub state: JobState,
+    pub error: Option<String>,
+    pub idempotency_key: Option<String>,
+    pub request_hash: String,
+    pub created_ms: i64,
+    pub started_ms: Option<i64>,
+    pub finished_ms: Option<i64>,
+}
+
+/// A tile row as stored.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TileRow {
+    pub state: TileRowState,
+    pub epoch: u64,
+    pub worker_id: Option<u64>,
+}
+
+/// The stored state of a tile that has been leased at least once.
+#[derive(Debug, Clone, PartialEq)]
+pub enum TileRowState {
+    Pending,
+    Leased,
+    Done { hash: String, stats: RenderStats },
+}
+
+/// A recorded tile failure.
+#[derive(Debug, Clone)]
+pub struct FailureRow {
+    pub tile_index: u32,
+    pub worker_id: u64,
+    pub reason: String,
+}
+
+/// Inserts a new job and returns its id.
+pub fn insert_job(conn: &Connection, row: &JobRow) -> rusqlite::Result<u64> {
+    conn.execute(
+        "INSERT INTO jobs (spec, priority, state, error, idempotency_key, request_hash, created_ms)
+         VALUES (?1, ?2, ?3, NULL, ?4, ?5, ?6)",
+        params![
+            row.spec_json,
+            row.priority,
+            row.state.as_str(),
+            row.idempotency_key,
+            row.request_hash,
+            row.created_ms
+        ],
+    )?;
+    Ok(conn.last_insert_rowid() as u64)
+}
+
+/// Every job, oldest first.
+pub fn load_jobs(conn: &Connection) -> anyhow::Result<Vec<JobRow>> {
+    let mut stmt = conn.prepare(
+        "SELECT id, spec, priority, state, error, idempotency_key, request_hash, created_ms,
+                started_ms, finished_ms FROM jobs ORDER BY id",
+    )?;
+    let rows = stmt.query_map([], |r| {
+        Ok((
+            JobRow {
+                id: r.get::<_, i64>(0)? as u64,
+                spec_json: r.get(1)?,
+                priority: r.get(2)?,
+                state: JobState::Queued,
+                error: r.get(4)?,
+                idempotency_key: r.get(5)?,
+                request_hash: r.get(6)?,
+                created_ms: r.get(7)?,
+                started_ms: r.get(8)?,
+                finished_ms: r.get(9)?,
+            },
+            r.get::<_, String>(3)?,
+        ))
+    })?;
+    let mut jobs = Vec::new();
+    for row in rows {
+        let (mut job, state) = row?;
+        job.state = JobState::parse(&state)
+            .ok_or_else(|| anyhow::anyhow!("job {}: unknown state {state:?}", job.id))?;
+        jobs.push(job);
+    }
+    Ok(jobs)
+}
+
+/// The stored tiles of a job, by index.
+pub fn load_tiles(conn: &Connection, job: u64) -> anyhow::Result<BTreeMap<u32, TileRow>> {
+    let mut stmt = conn.prepare(
+        "SELECT tile_index, state, epoch, worker_id, hash, stats FROM tiles WHERE job_id = ?1",
+    )?;
+    let mut rows = stmt.query([job as i64])?;
+    let mut tiles = BTreeMap::new();
+    while let Some(r) = rows.next()? {
+        let index: u32 = r.get(0)?;
+        let state: String = r.get(1)?;
+        let state = match state.as_str() {
+            "pending" => TileRowState::Pending,
+            "leased" => TileRowState::Leased,
+            "done" => {
+                let hash: Option<String> = r.get(4)?;
+                let stats: Option<String> = r.get(5)?;
+                let (Some(hash), Some(stats)) = (hash, stats) else {
+                    anyhow::bail!("job {job} tile {index}: done without hash or stats");
+                };
+                TileRowState::Done {
+                    hash,
+                    stats: serde_json::from_str(&stats)?,
+                }
+            }
+            other => anyhow::bail!("job {job} tile {index}: unknown state {other:?}"),
+        };
+        let row = TileRow {
+            state,
+            epoch: r.get::<_, i64>(2)? as u64,
+            worker_id: r.get::<_, Option<i64>>(3)?.map(|w| w as u64),
+        };
+        tiles.insert(index, row);
+    }
+    Ok(tiles)
+}
+
+/// The recorded failures of a job's tiles.
+pub fn load_failures(conn: &Connection, job: u64) -> anyhow::Result<Vec<FailureRow>> {
+    let mut stmt = conn.prepare(
+        "SELECT tile_index, worker_id, reason FROM tile_failures WHERE job_id = ?1
+         ORDER BY tile_index, worker_id",
+    )?;
+    let rows = stmt.query_map([job as i64], |r| {
+        Ok(FailureRow {
+            tile_index: r.get(0)?,
+            worker_id: r.get::<_, i64>(1)? as u64,
+            reason: r.get(2)?,
+        })
+    })?;
+    Ok(rows.collect::<Result<_, _>>()?)
+}
+
+/// Ids of every registered worker.
+pub fn load_workers(conn: &Connection) -> rusqlite::Result<Vec<u64>> {
+    let mut stmt = conn.prepare("SELECT id FROM workers")?;
+    let rows = stmt.query_map([], |r| Ok(r.get::<_, i64>(0)? as u64))?;
+    rows.collect()
+}
+
+/// Registers a worker and returns its id.
+pub fn insert_worker(
+    conn: &Connection,
+    name: &str,
+    threads: u32,
+    now_ms: i64,
+) -> rusqlite::Result<u64> {
+    conn.execute(
+        "INSERT INTO workers (name, threads, registered_ms) VALUES (?1, ?2, ?3)",
+        params![name, threads, now_ms],
+    )?;
+    Ok(conn.last_insert_rowid() as u64)
+}
+
+/// The job an idempotency key created, with the hash of the request that created it.
+pub fn job_for_key(conn: &Connection, key: &str) -> rusqlite::Result<Option<(u64, String)>> {
+    conn.query_row(
+        "SELECT id, request_hash FROM jobs WHERE idempotency_key = ?1",
+        [key],
+        |r| Ok((r.get::<_, i64>(0)? as u64, r.get(1)?)),
+    )
+    .optional()
+}
+
+/// Records a job's state and times.
+pub fn set_job_state(
+    conn: &Connection,
+    job: u64,
+    state: JobState,
+    error: Option<&str>,
+    started_ms: Option<i64>,
+    finished_ms: Option<i64>,
+) -> rusqlite::Result<()> {
+    conn.execute(
+        "UPDATE jobs SET state = ?2, error = ?3, started_ms = ?4, finished_ms = ?5 WHERE id = ?1",
+        params![job as i64, state.as_str(), error, started_ms, finished_ms],
+    )?;
+    Ok(())
+}
+
+/// Records that `worker` holds tile `index` of `job` under `epoch`.
+pub fn record_lease(
+    conn: &Connection,
+    job: u64,
+    index: u32,
+    epoch: u64,
+    worker: u64,
+) -> rusqlite::Result<()> {
+    conn.execute(
+        "INSERT INTO tiles (job_id, tile_index, state, epoch, worker_id) VALUES (?1, ?2, 'leased', ?3, ?4)
+         ON CONFLICT (job_id, tile_index) DO UPDATE SET state = 'leased', epoch = ?3, worker_id = ?4",
+        params![job as i64, index, epoch as i64, worker as i64],
+    )?;
+    Ok(())
+}
+
+/// Records a finished tile (its file is already on disk).
+pub fn record_done(
+    tx: &Transaction<'_>,
+    job: u64,
+    index: u32,
+    epoch: u64,
+    worker: u64,
+    hash: &str,
+    stats: &RenderStats,
+) -> anyhow::Result<()> {
+    tx.execute(
+        "INSERT INTO tiles (job_id, tile_index, state, epoch, worker_id, hash, stats)
+         VALUES (?1, ?2, 'done', ?3, ?4, ?5, ?6)
+         ON CONFLICT (job_id, tile_index) DO UPDATE
+           SET state = 'done', epoch = ?3, worker_id = ?4, hash = ?5, stats = ?6",
+        params![
+            job as i64,
+            index,
+            epoch as i64,
+            worker as i64,
+            hash,
+            serde_json::to_string(stats)?
+        ],
+    )?;
+    Ok(())
+}
+
+/// Records that `worker` failed tile `index` of `job`, and returns the tile to the queue.
+pub fn record_failure(
+    tx: &Transaction<'_>,
+    job: u64,
+    index: u32,
+    epoch: u64,
+    worker: u64,
+    reason: &str,
+) -> rusqlite::Result<()> {
+    tx.execute(
+        "INSERT OR REPLACE INTO tile_failures (job_id, tile_index, worker_id, epoch, reason)
+         VALUES (?1, ?2, ?3, ?4, ?5)",
+        params![job as i64, index, worker as i64, epoch as i64, reason],
+    )?;
+    tx.execute(
+        "UPDATE tiles SET state = 'pending' WHERE job_id = ?1 AND tile_index = ?2",
+        params![job as i64, index],
+    )?;
+    Ok(())
+}
+
+/// Forgets a job and everything recorded about it.
+pub fn delete_job(conn: &Connection, job: u64) -> rusqlite::Result<()> {
+    conn.execute("DELETE FROM jobs WHERE id = ?1", [job as i64])?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn migrations_apply_once_and_tables_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("spindle.db");
+        let conn = open(&path).unwrap();
+        let row = JobRow {
+            id: 0,
+            spec_json: "{}".into(),
+            priority: 3,
+            state: JobState::Queued,
+            error: None,
+            idempotency_key: Some("k".into()),
+            request_hash: "h".into(),
+            created_ms: 5,
+            started_ms: None,
+            finished_ms: None,
+        };
+        let id = insert_job(&conn, &row).unwrap();
+        record_lease(&conn, id, 7, 1, 42).unwrap();
+        drop(conn);
+
+        // Reopening must not re-run the migration (it would fail on CREATE TABLE).
+        let mut conn = open(&path).unwrap();
+        let tx = conn.transaction().unwrap();
+        let stats = RenderStats {
+            samples: 9,
+            ..RenderStats::default()
+        };
+        record_done(&tx, id, 7, 2, 43, "abc", &stats).unwrap();
+        tx.commit().unwrap();
+        let tiles = load_tiles(&conn, id).unwrap();
+        assert_eq!(tiles[&7].epoch, 2);
+        assert_eq!(tiles[&7].worker_id, Some(43));
+        assert_eq!(
+            tiles[&7].state,
+            TileRowState::Done {
+                hash: "abc".into(),
+                stats
+            }
+        );
+        assert_eq!(
+            job_for_key(&conn, "k").unwrap(),
+            Some((id, "h".to_string()))
+        );
+        delete_job(&conn, id).unwrap();
+        assert!(load_tiles(&conn, id).unwrap().is_empty(), "tiles cascade");
+    }
+}

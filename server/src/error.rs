@@ -1,0 +1,88 @@
+//! The coordinator's one error type, and how each case becomes an HTTP status and a JSON body.
+//!
+//! Handlers return `Result<_, Error>`. Client mistakes carry a message naming the field or the
+//! problem and are sent as [`ApiError`]; internal failures are logged with their cause and
+//! answered with a bare "internal error", so no path or SQL text leaks to a client.
+
+use axum::Json;
+use axum::http::StatusCode;
+use axum::response::{IntoResponse, Response};
+use spindle_common::protocol::ApiError;
+
+/// Everything a request can fail with.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// Malformed or invalid input (400).
+    #[error("{0}")]
+    BadRequest(String),
+    /// Missing or wrong bearer token (401).
+    #[error("{0}")]
+    Unauthorized(&'static str),
+    /// No such job, tile, worker or asset (404).
+    #[error("{0}")]
+    NotFound(String),
+    /// The request conflicts with the current state: a stale lease, a job not done yet (409).
+    #[error("{0}")]
+    Conflict(String),
+    /// The body is larger than the route allows (413).
+    #[error("{0}")]
+    TooLarge(String),
+    /// Too many jobs queued (429).
+    #[error("{0}")]
+    TooMany(String),
+    /// The coordinator is shutting down or not ready (503).
+    #[error("{0}")]
+    Unavailable(&'static str),
+    /// A failure of the coordinator itself (500); the cause is logged, not sent.
+    #[error("internal error: {0:#}")]
+    Internal(#[from] anyhow::Error),
+}
+
+impl Error {
+    /// The HTTP status this error is answered with.
+    pub fn status(&self) -> StatusCode {
+        match self {
+            Error::BadRequest(_) => StatusCode::BAD_REQUEST,
+            Error::Unauthorized(_) => StatusCode::UNAUTHORIZED,
+            Error::NotFound(_) => StatusCode::NOT_FOUND,
+            Error::Conflict(_) => StatusCode::CONFLICT,
+            Error::TooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
+            Error::TooMany(_) => StatusCode::TOO_MANY_REQUESTS,
+            Error::Unavailable(_) => StatusCode::SERVICE_UNAVAILABLE,
+            Error::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
+        }
+    }
+}
+
+impl From<rusqlite::Error> for Error {
+    fn from(e: rusqlite::Error) -> Self {
+        Error::Internal(anyhow::Error::new(e).context("database"))
+    }
+}
+
+impl From<std::io::Error> for Error {
+    fn from(e: std::io::Error) -> Self {
+        Error::Internal(anyhow::Error::new(e).context("file system"))
+    }
+}
+
+impl IntoResponse for Error {
+    fn into_response(self) -> Response {
+        let status = self.status();
+        let message = match &self {
+            Error::Internal(cause) => {
+                tracing::error!(error = format!("{cause:#}"), "internal error");
+                "internal error".to_string()
+            }
+            other => other.to_string(),
+        };
+        let mut response = (status, Json(ApiError { error: message })).into_response();
+        if matches!(self, Error::Unauthorized(_)) {
+            response.headers_mut().insert(
+                axum::http::header::WWW_AUTHENTICATE,
+                axum::http::HeaderValue::from_static("Bearer"),
+            );
+        }
+        response
+    }
+}

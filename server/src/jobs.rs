@@ -1,0 +1,417 @@
+//! The farm's jobs and tiles in memory: submission, progress, cancellation, deletion.
+//!
+//! [`Farm`] mirrors the database ([`crate::db`]) and owns the connection, so one lock orders
+//! every change: each change is written to the database first and applied in memory only once
+//! the write succeeded. A restarted coordinator rebuilds the farm from the database with
+//! [`Farm::load`]. Leasing, heartbeats, uploads and failures are in [`crate::lease`].
+
+use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
+use std::sync::Arc;
+use std::time::Duration;
+
+use rusqlite::Connection;
+use spindle_common::protocol::{JobInfo, JobSpec, JobState};
+use spindle_common::stats::RenderStats;
+use spindle_common::tile::{TileRect, split_centre_first};
+use tokio::time::Instant;
+
+use crate::db::{self, JobRow, TileRowState};
+use crate::error::Error;
+
+/// Worker failures on one tile that fail its job.
+pub const TILE_FAILURE_LIMIT: usize = 3;
+/// Tiles a worker may fail in one job before it is kept off that job.
+pub const WORKER_STRIKE_LIMIT: usize = 3;
+
+/// Every job and worker the coordinator knows, with the database they are stored in.
+pub struct Farm {
+    pub(crate) db: Connection,
+    pub(crate) jobs: BTreeMap<u64, Job>,
+    pub(crate) workers: HashSet<u64>,
+    pub(crate) lease_ttl: Duration,
+    /// Idempotency key → (job, hash of the request that created it).
+    keys: HashMap<String, (u64, String)>,
+}
+
+/// One job.
+pub struct Job {
+    pub id: u64,
+    pub spec: Arc<JobSpec>,
+    pub priority: i32,
+    pub state: JobState,
+    pub error: Option<String>,
+    pub created_ms: i64,
+    pub started_ms: Option<i64>,
+    pub finished_ms: Option<i64>,
+    /// Tile rectangles in centre-first order; a tile's index is its position here.
+    pub rects: Vec<TileRect>,
+    pub tiles: Vec<Tile>,
+    /// Indices of tiles in [`TileStatus::Leased`].
+    pub leased: BTreeSet<u32>,
+    pub tiles_done: u32,
+    /// Sum of the finished tiles' statistics.
+    pub stats: RenderStats,
+    /// Tile → workers that failed it.
+    pub failed_by: HashMap<u32, BTreeSet<u64>>,
+    /// Worker → tiles of this job it failed.
+    pub strikes: HashMap<u64, BTreeSet<u32>>,
+    /// Every tile is in and the final image is being written.
+    pub assembling: bool,
+}
+
+/// One tile of a job.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Tile {
+    /// The epoch of the latest lease (0: never leased).
+    pub epoch: u64,
+    /// The worker of the latest lease, while that lease may still report.
+    pub worker: Option<u64>,
+    pub status: TileStatus,
+}
+
+/// Where a tile is.
+#[derive(Debug, Clone, PartialEq)]
+pub enum TileStatus {
+    Pending,
+    Leased { deadline: Instant },
+    Done { hash: String },
+}
+
+/// Milliseconds since the Unix epoch, for the times kept in the database.
+pub fn now_ms() -> i64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_millis() as i64)
+        .unwrap_or(0)
+}
+
+impl Job {
+    fn new(id: u64, spec: Arc<JobSpec>, priority: i32, created_ms: i64) -> Job {
+        let rects = split_centre_first(
+            spec.scene.film.width,
+            spec.scene.film.height,
+            spec.tile_size,
+        );
+        let tiles = vec![
+            Tile {
+                epoch: 0,
+                worker: None,
+                status: TileStatus::Pending,
+            };
+            rects.len()
+        ];
+        Job {
+            id,
+            spec,
+            priority,
+            state: JobState::Queued,
+            error: None,
+            created_ms,
+            started_ms: None,
+            finished_ms: None,
+            rects,
+            tiles,
+            leased: BTreeSet::new(),
+            tiles_done: 0,
+            stats: RenderStats::default(),
+            failed_by: HashMap::new(),
+            strikes: HashMap::new(),
+            assembling: false,
+        }
+    }
+
+    /// Is the job still handing out tiles?
+    pub fn is_active(&self) -> bool {
+        !self.state.is_finished() && !self.assembling
+    }
+
+    /// Is every tile in?
+    pub fn is_complete(&self) -> bool {
+        self.tiles_done as usize == self.tiles.len()
+    }
+
+    /// The job as clients see it, at wall-clock time `now_ms`.
+    pub fn info(&self, now_ms: i64) -> JobInfo {
+        let elapsed_ms = match self.started_ms {
+            Some(start) => (self.finished_ms.unwrap_or(now_ms) - start).max(0),
+            None => 0,
+        };
+        let elapsed_s = elapsed_ms as f64 / 1000.0;
+        let total = self.tiles.len() as u32;
+        let eta_s = (self.tiles_done > 0 && !self.state.is_finished())
+            .then(|| elapsed_s / self.tiles_done as f64 * (total - self.tiles_done) as f64);
+        JobInfo {
+            id: self.id,
+            state: self.state,
+            priority: self.priority,
+            width: self.spec.scene.film.width,
+            height: self.spec.scene.film.height,
+            tile_size: self.spec.tile_size,
+            tiles_done: self.tiles_done,
+            tiles_total: total,
+            elapsed_s,
+            eta_s,
+            error: self.error.clone(),
+            stats: self.stats,
+        }
+    }
+
+    /// Returns every leased tile to the queue (the job stopped handing out work).
+    pub(crate) fn drop_leases(&mut self) {
+        for index in std::mem::take(&mut self.leased) {
+            let tile = &mut self.tiles[index as usize];
+            tile.status = TileStatus::Pending;
+            tile.worker = None;
+        }
+    }
+}
+
+/// A validated submission, ready to be stored.
+pub struct NewJob {
+    pub spec: JobSpec,
+    pub priority: i32,
+    pub idempotency_key: Option<String>,
+    /// blake3 of the canonical request, to tell a retry from a different request with the
+    /// same key.
+    pub request_hash: String,
+}
+
+impl Farm {
+    /// Rebuilds the farm from the database. Leases that were live when the previous process
+    /// stopped get `grace` from `now` to be renewed before they expire.
+    pub fn load(
+        db: Connection,
+        lease_ttl: Duration,
+        grace: Duration,
+        now: Instant,
+    ) -> anyhow::Result<Farm> {
+        let mut jobs = BTreeMap::new();
+        let mut keys = HashMap::new();
+        for row in db::load_jobs(&db)? {
+            let spec: JobSpec = serde_json::from_str(&row.spec_json)
+                .map_err(|e| anyhow::anyhow!("job {}: stored spec: {e}", row.id))?;
+            let mut job = Job::new(row.id, Arc::new(spec), row.priority, row.created_ms);
+            job.state = row.state;
+            job.error = row.error;
+            job.started_ms = row.started_ms;
+            job.finished_ms = row.finished_ms;
+            let active = job.is_active();
+            for (index, stored) in db::load_tiles(&db, row.id)? {
+                let Some(tile) = job.tiles.get_mut(index as usize) else {
+                    anyhow::bail!("job {}: stored tile {index} out of range", row.id);
+                };
+                tile.epoch = stored.epoch;
+                match stored.state {
+                    TileRowState::Pending => {}
+                    TileRowState::Leased if active => {
+                        tile.worker = stored.worker_id;
+                        tile.status = TileStatus::Leased {
+                            deadline: now + grace,
+                        };
+                        job.leased.insert(index);
+                    }
+                    TileRowState::Leased => {}
+                    TileRowState::Done { hash, stats } => {
+                        tile.worker = stored.worker_id;
+                        tile.status = TileStatus::Done { hash };
+                        job.tiles_done += 1;
+                        job.stats.add(&stats);
+                    }
+                }
+            }
+            for failure in db::load_failures(&db, row.id)? {
+                job.failed_by
+                    .entry(failure.tile_index)
+                    .or_default()
+                    .insert(failure.worker_id);
+                job.strikes
+                    .entry(failure.worker_id)
+                    .or_default()
+                    .insert(failure.tile_index);
+            }
+            if let Some(key) = row.idempotency_key {
+                keys.insert(key, (row.id, row.request_hash));
+            }
+            jobs.insert(row.id, job);
+        }
+        let workers = db::load_workers(&db)?.into_iter().collect();
+        Ok(Farm {
+            db,
+            jobs,
+            workers,
+            lease_ttl,
+            keys,
+        })
+    }
+
+    /// The job with this id.
+    pub fn job(&self, id: u64) -> Result<&Job, Error> {
+        self.jobs
+            .get(&id)
+            .ok_or_else(|| Error::NotFound(format!("job {id} does not exist")))
+    }
+
+    pub(crate) fn job_mut(&mut self, id: u64) -> Result<&mut Job, Error> {
+        self.jobs
+            .get_mut(&id)
+            .ok_or_else(|| Error::NotFound(format!("job {id} does not exist")))
+    }
+
+    /// Stores a new job, or returns the one an earlier request with the same idempotency key
+    /// created (`false`: nothing new was stored).
+    pub fn submit(&mut self, new: NewJob, max_active: usize) -> Result<(JobInfo, bool), Error> {
+        let now = now_ms();
+        if let Some(key) = &new.idempotency_key
+            && let Some((id, hash)) = self.keys.get(key)
+        {
+            if *hash != new.request_hash {
+                return Err(Error::Conflict(format!(
+                    "Idempotency-Key {key:?} was already used for a different request (job {id})"
+                )));
+            }
+            return Ok((self.job(*id)?.info(now), false));
+        }
+        let active = self
+            .jobs
+            .values()
+            .filter(|j| !j.state.is_finished())
+            .count();
+        if active >= max_active {
+            return Err(Error::TooMany(format!(
+                "{active} jobs are queued or running, the limit is {max_active}; \
+                 wait for one to finish or cancel one"
+            )));
+        }
+        let row = JobRow {
+            id: 0,
+            spec_json: serde_json::to_string(&new.spec).map_err(anyhow::Error::from)?,
+            priority: new.priority,
+            state: JobState::Queued,
+            error: None,
+            idempotency_key: new.idempotency_key.clone(),
+            request_hash: new.request_hash.clone(),
+            created_ms: now,
+            started_ms: None,
+            finished_ms: None,
+        };
+        let id = db::insert_job(&self.db, &row)?;
+        let job = Job::new(id, Arc::new(new.spec), new.priority, now);
+        let info = job.info(now);
+        self.jobs.insert(id, job);
+        if let Some(key) = new.idempotency_key {
+            self.keys.insert(key, (id, new.request_hash));
+        }
+        tracing::info!(
+            job = id,
+            tiles = info.tiles_total,
+            priority = info.priority,
+            "job submitted"
+        );
+        Ok((info, true))
+    }
+
+    /// All jobs, oldest first.
+    pub fn list(&self) -> Vec<JobInfo> {
+        let now = now_ms();
+        self.jobs.values().map(|j| j.info(now)).collect()
+    }
+
+    /// Cancels a job that has not finished; cancelling a cancelled job changes nothing.
+    pub fn cancel(&mut self, id: u64) -> Result<JobInfo, Error> {
+        let job = self.job(id)?;
+        match job.state {
+            JobState::Cancelled => return Ok(job.info(now_ms())),
+            JobState::Done | JobState::Failed => {
+                return Err(Error::Conflict(format!(
+                    "job {id} is already {}",
+                    job.state.as_str()
+                )));
+            }
+            JobState::Queued | JobState::Running => {}
+        }
+        let now = now_ms();
+        let started = job.started_ms;
+        db::set_job_state(&self.db, id, JobState::Cancelled, None, started, Some(now))?;
+        let job = self.job_mut(id)?;
+        job.state = JobState::Cancelled;
+        job.finished_ms = Some(now);
+        job.drop_leases();
+        tracing::info!(job = id, "job cancelled");
+        Ok(job.info(now))
+    }
+
+    /// Forgets a job (its files are removed by the caller).
+    pub fn delete(&mut self, id: u64) -> Result<(), Error> {
+        self.job(id)?;
+        db::delete_job(&self.db, id)?;
+        self.jobs.remove(&id);
+        self.keys.retain(|_, (job, _)| *job != id);
+        tracing::info!(job = id, "job deleted");
+        Ok(())
+    }
+
+    /// Checks that the database answers.
+    pub fn check_database(&self) -> Result<(), Error> {
+        self.db.query_row("SELECT 1", [], |_| Ok(()))?;
+        Ok(())
+    }
+
+    /// Registers a worker.
+    pub fn register_worker(&mut self, name: &str, threads: u32) -> Result<u64, Error> {
+        let id = db::insert_worker(&self.db, name, threads, now_ms())?;
+        self.workers.insert(id);
+        tracing::info!(worker = id, name, threads, "worker registered");
+        Ok(id)
+    }
+
+    /// The finished tiles of a job as `(index, hash)`, in index order.
+    pub fn done_tiles(&self, id: u64) -> Result<Vec<(u32, String)>, Error> {
+        let job = self.job(id)?;
+        Ok(job
+            .tiles
+            .iter()
+            .enumerate()
+            .filter_map(|(i, t)| match &t.status {
+                TileStatus::Done { hash } => Some((i as u32, hash.clone())),
+                _ => None,
+            })
+            .collect())
+    }
+
+    /// Jobs whose tiles are all in but whose image is not written yet (after a restart, or
+    /// when the last tile arrives); marks them as assembling.
+    pub fn take_jobs_to_assemble(&mut self) -> Vec<u64> {
+        let mut ids = Vec::new();
+        for job in self.jobs.values_mut() {
+            if job.is_complete() && !job.state.is_finished() && !job.assembling {
+                job.assembling = true;
+                ids.push(job.id);
+            }
+        }
+        ids
+    }
+
+    /// Records the end of assembly: the image is written (`Ok`), or it could not be.
+    pub fn finish_assembly(&mut self, id: u64, result: Result<(), String>) -> Result<(), Error> {
+        let Ok(job) = self.job(id) else {
+            return Ok(()); // Deleted meanwhile.
+        };
+        let (state, error) = match result {
+            Ok(()) => (JobState::Done, None),
+            Err(e) => (
+                JobState::Failed,
+                Some(format!("assembling the image failed: {e}")),
+            ),
+        };
+        let now = now_ms();
+        let started = job.started_ms;
+        db::set_job_state(&self.db, id, state, error.as_deref(), started, Some(now))?;
+        let job = self.job_mut(id)?;
+        job.state = state;
+        job.error = error;
+        job.finished_ms = Some(now);
+        job.assembling = false;
+        tracing::info!(job = id, state = state.as_str(), "job finished");
+        Ok(())
+    }
+}

@@ -1,0 +1,399 @@
+//! Handing tiles to workers: leases with a time to live, renewed by heartbeats, and an epoch
+//! per tile so a worker presumed dead cannot overwrite a newer attempt.
+//!
+//! Rules, in one place:
+//! - Jobs are served by priority (higher first), then submission order; a job's tiles in
+//!   centre-first order (tile index order).
+//! - A lease lapses `lease_ttl` after it was granted or last renewed; the tile goes back to the
+//!   queue and its next lease has a higher epoch.
+//! - An upload is stored only from the tile's latest lease (worker and epoch), even if that
+//!   lease has lapsed, as long as nobody has been given the tile since. Once a tile is done, an
+//!   upload with the same pixel hash is acknowledged as a duplicate and one with a different
+//!   hash is refused (409) and logged as a determinism fault.
+//! - A worker that fails a tile is not given that tile again. A tile failed by
+//!   [`TILE_FAILURE_LIMIT`] different workers fails its job; a worker that failed
+//!   [`WORKER_STRIKE_LIMIT`] tiles of a job is given no more of that job's tiles.
+
+use spindle_common::protocol::{
+    Heartbeat, HeartbeatAck, JobState, Lease, TileFailure, TileOutcome, TileUpload,
+};
+use tokio::time::Instant;
+
+use crate::db;
+use crate::error::Error;
+use crate::jobs::{Farm, Job, TILE_FAILURE_LIMIT, TileStatus, WORKER_STRIKE_LIMIT, now_ms};
+
+/// What to do with an upload that passed the checks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum UploadPlan {
+    /// The tile is already done with this result: acknowledge, store nothing.
+    Duplicate,
+    /// Write the tile's file, then [`Farm::record_upload`].
+    Store,
+}
+
+impl Farm {
+    /// Checks a worker id.
+    pub fn check_worker(&self, worker: u64) -> Result<(), Error> {
+        if self.workers.contains(&worker) {
+            Ok(())
+        } else {
+            Err(Error::NotFound(format!(
+                "worker {worker} is not registered (POST /v1/workers)"
+            )))
+        }
+    }
+
+    /// Returns lapsed leases to the queue.
+    pub fn expire_leases(&mut self, now: Instant) {
+        for job in self.jobs.values_mut() {
+            let lapsed: Vec<u32> = job
+                .leased
+                .iter()
+                .copied()
+                .filter(|&i| {
+                    matches!(job.tiles[i as usize].status,
+                             TileStatus::Leased { deadline } if deadline <= now)
+                })
+                .collect();
+            for index in lapsed {
+                job.leased.remove(&index);
+                // The worker is kept: its late result is still welcome until the tile is
+                // leased again.
+                job.tiles[index as usize].status = TileStatus::Pending;
+                tracing::info!(
+                    job = job.id,
+                    tile = index,
+                    "lease expired; tile back in the queue"
+                );
+            }
+        }
+    }
+
+    /// When the next live lease lapses, if any.
+    pub fn next_expiry(&self) -> Option<Instant> {
+        self.jobs
+            .values()
+            .flat_map(|job| {
+                job.leased
+                    .iter()
+                    .filter_map(|&i| match job.tiles[i as usize].status {
+                        TileStatus::Leased { deadline } => Some(deadline),
+                        _ => None,
+                    })
+            })
+            .min()
+    }
+
+    /// Leases the next tile for `worker`, if any job has one it may take.
+    pub fn try_lease(&mut self, worker: u64, now: Instant) -> Result<Option<Lease>, Error> {
+        self.check_worker(worker)?;
+        self.expire_leases(now);
+        let mut order: Vec<(i32, u64)> = self
+            .jobs
+            .values()
+            .filter(|j| j.is_active())
+            .map(|j| (j.priority, j.id))
+            .collect();
+        order.sort_by_key(|&(priority, id)| (std::cmp::Reverse(priority), id));
+        for (_, id) in order {
+            let job = &self.jobs[&id];
+            if job
+                .strikes
+                .get(&worker)
+                .is_some_and(|tiles| tiles.len() >= WORKER_STRIKE_LIMIT)
+            {
+                continue;
+            }
+            let Some(index) = next_tile_for(job, worker) else {
+                continue;
+            };
+            return self.grant(id, index, worker, now).map(Some);
+        }
+        Ok(None)
+    }
+
+    fn grant(&mut self, id: u64, index: u32, worker: u64, now: Instant) -> Result<Lease, Error> {
+        let ttl = self.lease_ttl;
+        let job = &self.jobs[&id];
+        let epoch = job.tiles[index as usize].epoch + 1;
+        let start = (job.state == JobState::Queued).then(now_ms);
+        let tx = self.db.transaction()?;
+        db::record_lease(&tx, id, index, epoch, worker)?;
+        if let Some(start) = start {
+            db::set_job_state(&tx, id, JobState::Running, None, Some(start), None)?;
+        }
+        tx.commit()?;
+
+        let job = self.jobs.get_mut(&id).expect("job looked up above");
+        if let Some(start) = start {
+            job.state = JobState::Running;
+            job.started_ms = Some(start);
+        }
+        let tile = &mut job.tiles[index as usize];
+        tile.epoch = epoch;
+        tile.worker = Some(worker);
+        tile.status = TileStatus::Leased {
+            deadline: now + ttl,
+        };
+        job.leased.insert(index);
+        tracing::debug!(job = id, tile = index, epoch, worker, "tile leased");
+        Ok(Lease {
+            job_id: id,
+            tile_index: index,
+            rect: job.rects[index as usize],
+            epoch,
+            ttl_ms: ttl.as_millis() as u64,
+        })
+    }
+
+    /// Renews a lease; 409 when it is no longer the worker's.
+    pub fn heartbeat(
+        &mut self,
+        id: u64,
+        index: u32,
+        hb: &Heartbeat,
+        now: Instant,
+    ) -> Result<HeartbeatAck, Error> {
+        let ttl = self.lease_ttl;
+        let job = self.job_mut(id)?;
+        check_index(job, index)?;
+        if !job.is_active() {
+            return Err(Error::Conflict(format!(
+                "job {id} is {}; stop rendering tile {index}",
+                job.state.as_str()
+            )));
+        }
+        let tile = &mut job.tiles[index as usize];
+        let yours = tile.epoch == hb.epoch && tile.worker == Some(hb.worker_id);
+        match tile.status {
+            TileStatus::Leased { .. } | TileStatus::Pending if yours => {
+                // A lapsed lease nobody else took is revived: the work is not wasted.
+                tile.status = TileStatus::Leased {
+                    deadline: now + ttl,
+                };
+                job.leased.insert(index);
+                Ok(HeartbeatAck {
+                    ttl_ms: ttl.as_millis() as u64,
+                })
+            }
+            TileStatus::Done { .. } => Err(Error::Conflict(format!(
+                "tile {index} of job {id} is already done"
+            ))),
+            _ => Err(Error::Conflict(format!(
+                "stale lease: tile {index} of job {id} is at epoch {}, not {} of worker {}",
+                tile.epoch, hb.epoch, hb.worker_id
+            ))),
+        }
+    }
+
+    /// Checks an upload against the job and the tile's lease. `upload.hash` must already be
+    /// checked against the pixels.
+    pub fn check_upload(
+        &self,
+        id: u64,
+        index: u32,
+        upload: &TileUpload,
+    ) -> Result<UploadPlan, Error> {
+        let job = self.job(id)?;
+        check_index(job, index)?;
+        let expected = job.rects[index as usize];
+        if upload.pixels.rect != expected {
+            return Err(Error::BadRequest(format!(
+                "pixels.rect: {:?} is not the rectangle of tile {index}, {expected:?}",
+                upload.pixels.rect
+            )));
+        }
+        let samples = expected.pixel_count() * 3;
+        for (name, layer) in spindle_common::tile::LAYER_NAMES
+            .iter()
+            .zip(upload.pixels.layers())
+        {
+            if layer.len() != samples {
+                return Err(Error::BadRequest(format!(
+                    "pixels.{name}: expected {samples} values (3 per pixel), got {}",
+                    layer.len()
+                )));
+            }
+        }
+        let tile = &job.tiles[index as usize];
+        if let TileStatus::Done { hash } = &tile.status {
+            if *hash == upload.hash {
+                return Ok(UploadPlan::Duplicate);
+            }
+            tracing::error!(
+                job = id,
+                tile = index,
+                worker = upload.worker_id,
+                epoch = upload.epoch,
+                recorded = %hash,
+                uploaded = %upload.hash,
+                "determinism fault: a second result for a finished tile differs from the first"
+            );
+            return Err(Error::Conflict(format!(
+                "tile {index} of job {id} is already done with a different result \
+                 (determinism fault, logged)"
+            )));
+        }
+        if !job.is_active() {
+            return Err(Error::Conflict(format!(
+                "job {id} is {}",
+                job.state.as_str()
+            )));
+        }
+        if tile.epoch != upload.epoch || tile.worker != Some(upload.worker_id) {
+            return Err(Error::Conflict(format!(
+                "stale lease: tile {index} of job {id} is at epoch {}, not {} of worker {}",
+                tile.epoch, upload.epoch, upload.worker_id
+            )));
+        }
+        Ok(UploadPlan::Store)
+    }
+
+    /// Records a tile whose file has been written. Returns the outcome and whether the job now
+    /// has every tile.
+    pub fn record_upload(
+        &mut self,
+        id: u64,
+        index: u32,
+        upload: &TileUpload,
+    ) -> Result<(TileOutcome, bool), Error> {
+        // The lease may have changed while the file was written.
+        if self.check_upload(id, index, upload)? == UploadPlan::Duplicate {
+            return Ok((TileOutcome::Duplicate, false));
+        }
+        let tx = self.db.transaction()?;
+        db::record_done(
+            &tx,
+            id,
+            index,
+            upload.epoch,
+            upload.worker_id,
+            &upload.hash,
+            &upload.pixels.stats,
+        )?;
+        tx.commit()?;
+        let job = self.job_mut(id)?;
+        job.tiles[index as usize].status = TileStatus::Done {
+            hash: upload.hash.clone(),
+        };
+        job.leased.remove(&index);
+        job.tiles_done += 1;
+        job.stats.add(&upload.pixels.stats);
+        tracing::debug!(
+            job = id,
+            tile = index,
+            worker = upload.worker_id,
+            "tile done"
+        );
+        Ok((TileOutcome::Accepted, job.is_complete()))
+    }
+
+    /// Records that a worker could not render its tile; may fail the job.
+    pub fn fail_tile(&mut self, id: u64, index: u32, failure: &TileFailure) -> Result<(), Error> {
+        let job = self.job(id)?;
+        check_index(job, index)?;
+        let tile = &job.tiles[index as usize];
+        if matches!(tile.status, TileStatus::Done { .. }) {
+            return Err(Error::Conflict(format!(
+                "tile {index} of job {id} is already done"
+            )));
+        }
+        if !job.is_active() {
+            return Err(Error::Conflict(format!(
+                "job {id} is {}",
+                job.state.as_str()
+            )));
+        }
+        if tile.epoch != failure.epoch || tile.worker != Some(failure.worker_id) {
+            return Err(Error::Conflict(format!(
+                "stale lease: tile {index} of job {id} is at epoch {}, not {} of worker {}",
+                tile.epoch, failure.epoch, failure.worker_id
+            )));
+        }
+        let mut failed_by = job.failed_by.get(&index).cloned().unwrap_or_default();
+        failed_by.insert(failure.worker_id);
+        let job_error = (failed_by.len() >= TILE_FAILURE_LIMIT).then(|| {
+            format!(
+                "tile {index} {:?} failed on {} different workers; last reason: {}",
+                job.rects[index as usize],
+                failed_by.len(),
+                failure.reason
+            )
+        });
+        let started = job.started_ms;
+        let now = now_ms();
+
+        let tx = self.db.transaction()?;
+        db::record_failure(
+            &tx,
+            id,
+            index,
+            failure.epoch,
+            failure.worker_id,
+            &failure.reason,
+        )?;
+        if let Some(error) = &job_error {
+            db::set_job_state(&tx, id, JobState::Failed, Some(error), started, Some(now))?;
+        }
+        tx.commit()?;
+
+        let job = self.job_mut(id)?;
+        let tile = &mut job.tiles[index as usize];
+        tile.status = TileStatus::Pending;
+        tile.worker = None;
+        job.leased.remove(&index);
+        job.failed_by.insert(index, failed_by);
+        let strikes = job.strikes.entry(failure.worker_id).or_default();
+        strikes.insert(index);
+        tracing::warn!(
+            job = id,
+            tile = index,
+            worker = failure.worker_id,
+            reason = %failure.reason,
+            "tile failed"
+        );
+        if strikes.len() == WORKER_STRIKE_LIMIT {
+            tracing::warn!(
+                job = id,
+                worker = failure.worker_id,
+                "worker kept off the job after {WORKER_STRIKE_LIMIT} failed tiles"
+            );
+        }
+        if let Some(error) = job_error {
+            tracing::error!(job = id, %error, "job failed");
+            job.state = JobState::Failed;
+            job.error = Some(error);
+            job.finished_ms = Some(now);
+            job.drop_leases();
+        }
+        Ok(())
+    }
+}
+
+/// The first pending tile of `job` (centre-first) that `worker` has not failed.
+fn next_tile_for(job: &Job, worker: u64) -> Option<u32> {
+    job.tiles
+        .iter()
+        .enumerate()
+        .find(|(i, t)| {
+            t.status == TileStatus::Pending
+                && !job
+                    .failed_by
+                    .get(&(*i as u32))
+                    .is_some_and(|w| w.contains(&worker))
+        })
+        .map(|(i, _)| i as u32)
+}
+
+fn check_index(job: &Job, index: u32) -> Result<(), Error> {
+    if (index as usize) < job.tiles.len() {
+        Ok(())
+    } else {
+        Err(Error::NotFound(format!(
+            "job {} has no tile {index} (it has {})",
+            job.id,
+            job.tiles.len()
+        )))
+    }
+}

@@ -1,0 +1,158 @@
+//! What the coordinator accepts: image size, samples, triangles, tiles, jobs and body sizes.
+//!
+//! A farm is shared, so a single request must not be able to exhaust its memory, disk or time.
+//! Each check names the offending field and the limit, and becomes a 4xx before anything is
+//! stored. Triangle counts are known without building geometry: an icosphere of `s`
+//! subdivisions has 20·4^s triangles; an OBJ's are counted from its `f` lines.
+
+use spindle_common::scene::{Scene, Shape};
+
+/// The coordinator's limits.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Limits {
+    pub max_width: u32,
+    pub max_height: u32,
+    /// Width × height.
+    pub max_pixels: u64,
+    pub max_spp: u32,
+    /// Triangles of all shapes together.
+    pub max_triangles: u64,
+    pub min_tile_size: u32,
+    pub max_tile_size: u32,
+    /// Jobs queued or running at once (finished jobs do not count).
+    pub max_active_jobs: usize,
+    /// JSON request bodies (job submissions, asset queries, …).
+    pub max_json_bytes: usize,
+    /// One tile upload (its pixels as JSON).
+    pub max_tile_upload_bytes: usize,
+    /// One asset file.
+    pub max_asset_bytes: usize,
+    /// Hashes in one `POST /v1/assets/missing`.
+    pub max_hashes_per_query: usize,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            max_width: 16_384,
+            max_height: 16_384,
+            max_pixels: 64 << 20,
+            max_spp: 1 << 16,
+            max_triangles: 20_000_000,
+            min_tile_size: 4,
+            max_tile_size: 256,
+            max_active_jobs: 64,
+            max_json_bytes: 4 << 20,
+            // A 256 × 256 tile is 589 824 floats; as JSON at most ~16 bytes each.
+            max_tile_upload_bytes: 16 << 20,
+            max_asset_bytes: 1 << 30,
+            max_hashes_per_query: 10_000,
+        }
+    }
+}
+
+impl Limits {
+    /// Checks the film and the tile size of a job (not its triangles, see
+    /// [`Limits::check_triangles`]).
+    pub fn check_film(&self, scene: &Scene, tile_size: u32) -> Result<(), String> {
+        let film = &scene.film;
+        for (field, value, max) in [
+            ("scene.film.width", film.width, self.max_width),
+            ("scene.film.height", film.height, self.max_height),
+            ("scene.film.spp", film.spp, self.max_spp),
+        ] {
+            if value == 0 {
+                return Err(format!("{field}: must be at least 1"));
+            }
+            if value > max {
+                return Err(format!("{field}: {value} exceeds the limit of {max}"));
+            }
+        }
+        let pixels = film.width as u64 * film.height as u64;
+        if pixels > self.max_pixels {
+            return Err(format!(
+                "scene.film: {}x{} = {pixels} pixels exceeds the limit of {}",
+                film.width, film.height, self.max_pixels
+            ));
+        }
+        if !(self.min_tile_size..=self.max_tile_size).contains(&tile_size) {
+            return Err(format!(
+                "tile_size: must be between {} and {}",
+                self.min_tile_size, self.max_tile_size
+            ));
+        }
+        Ok(())
+    }
+
+    /// Checks the scene's triangle count; `obj_triangles(path)` gives the count of an OBJ shape's
+    /// asset (or an error naming the problem).
+    pub fn check_triangles(
+        &self,
+        scene: &Scene,
+        mut obj_triangles: impl FnMut(&str) -> Result<u64, String>,
+    ) -> Result<(), String> {
+        let mut total: u64 = 0;
+        for (i, object) in scene.objects.iter().enumerate() {
+            let field = format!("scene.objects[{i}].shape");
+            let count = match &object.shape {
+                Shape::Obj { path } => obj_triangles(path).map_err(|e| format!("{field}: {e}"))?,
+                Shape::Icosphere { subdivisions, .. } | Shape::BumpySphere { subdivisions, .. } => {
+                    icosphere_triangles(*subdivisions).unwrap_or(u64::MAX)
+                }
+            };
+            total = total.saturating_add(count);
+            if total > self.max_triangles {
+                return Err(format!(
+                    "{field}: the scene has more than {} triangles (the limit)",
+                    self.max_triangles
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Triangles of an icosphere subdivided `subdivisions` times: 20·4^s, or `None` past u64.
+pub fn icosphere_triangles(subdivisions: u32) -> Option<u64> {
+    4u64.checked_pow(subdivisions)?.checked_mul(20)
+}
+
+/// Triangles an OBJ file describes: a face line `f v1 v2 … vn` is a fan of n − 2 triangles.
+pub fn count_obj_triangles(bytes: &[u8]) -> u64 {
+    bytes
+        .split(|&b| b == b'\n')
+        .filter_map(|line| {
+            let line = line.trim_ascii_start();
+            let rest = line.strip_prefix(b"f")?;
+            if !rest.first().is_some_and(|b| b.is_ascii_whitespace()) {
+                return None; // `fo …` or a bare `f` is not a face.
+            }
+            let corners = rest
+                .split(|b| b.is_ascii_whitespace())
+                .filter(|t| !t.is_empty())
+                .count() as u64;
+            Some(corners.saturating_sub(2))
+        })
+        .sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn icosphere_counts() {
+        assert_eq!(icosphere_triangles(0), Some(20));
+        assert_eq!(icosphere_triangles(1), Some(80));
+        assert_eq!(icosphere_triangles(5), Some(20_480));
+        assert_eq!(icosphere_triangles(40), None);
+    }
+
+    #[test]
+    fn obj_faces_are_counted_as_fans() {
+        let obj = b"# a quad and a triangle\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n\
+                    f 1 2 3 4\r\n  f 1/1/1 2/2/2 3/3/3\nfo 1 2 3\nvn 0 0 1\nf\n";
+        assert_eq!(count_obj_triangles(obj), 2 + 1);
+        assert_eq!(count_obj_triangles(b""), 0);
+    }
+}

@@ -1,0 +1,140 @@
+//! Finished tiles on disk, one file per tile result, named by the result's content hash.
+//!
+//! `DATA/jobs/<job>/tiles/<index>-<hash>.json` holds the [`TilePixels`] as JSON (every finite
+//! f32 survives JSON exactly; see `protocol`'s tests). Files are written to a temporary name,
+//! synced, then renamed, and only then is the tile recorded as done in the database, so a
+//! coordinator killed at any moment never records a tile it does not have. Naming by hash means
+//! a slow, stale upload can never overwrite the file a newer, recorded result lives in.
+//!
+//! All functions here block; call them from `spawn_blocking`.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use spindle_common::protocol::pixel_hash;
+use spindle_common::tile::TilePixels;
+
+/// Job directories under `DATA/jobs`.
+#[derive(Debug, Clone)]
+pub struct TileStore {
+    root: PathBuf,
+}
+
+impl TileStore {
+    /// A store rooted at `root` (created if missing).
+    pub fn open(root: PathBuf) -> std::io::Result<TileStore> {
+        std::fs::create_dir_all(&root)?;
+        Ok(TileStore { root })
+    }
+
+    /// The directory of one job.
+    pub fn job_dir(&self, job: u64) -> PathBuf {
+        self.root.join(job.to_string())
+    }
+
+    /// Where the final EXR of a job goes.
+    pub fn image_path(&self, job: u64) -> PathBuf {
+        self.job_dir(job).join("image.exr")
+    }
+
+    fn tile_path(&self, job: u64, index: u32, hash: &str) -> PathBuf {
+        self.job_dir(job)
+            .join("tiles")
+            .join(format!("{index}-{hash}.json"))
+    }
+
+    /// Writes a tile result durably (temp file, fsync, rename, fsync of the directory).
+    pub fn write(
+        &self,
+        job: u64,
+        index: u32,
+        hash: &str,
+        pixels: &TilePixels,
+    ) -> anyhow::Result<()> {
+        let path = self.tile_path(job, index, hash);
+        let bytes = serde_json::to_vec(pixels)?;
+        write_atomic(&path, &bytes)
+    }
+
+    /// Reads a recorded tile result back and checks it is the one recorded.
+    pub fn read(&self, job: u64, index: u32, hash: &str) -> anyhow::Result<TilePixels> {
+        let path = self.tile_path(job, index, hash);
+        let bytes = std::fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
+        let pixels: TilePixels = serde_json::from_slice(&bytes)
+            .with_context(|| format!("parsing {}", path.display()))?;
+        anyhow::ensure!(
+            pixel_hash(&pixels) == hash,
+            "{} does not hold the recorded result",
+            path.display()
+        );
+        Ok(pixels)
+    }
+
+    /// Removes a job's directory and everything in it.
+    pub fn remove_job(&self, job: u64) -> std::io::Result<()> {
+        match std::fs::remove_dir_all(self.job_dir(job)) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e),
+            _ => Ok(()),
+        }
+    }
+}
+
+/// Writes `bytes` to `path` so that a reader (or a restarted process) sees the old file or the
+/// whole new one, never a part: temporary file in the same directory, fsync, rename, fsync of
+/// the directory.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    let dir = path.parent().context("a file path has a parent")?;
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let mut tmp = tempfile::Builder::new()
+        .prefix(".tmp-")
+        .tempfile_in(dir)
+        .with_context(|| format!("creating a temporary file in {}", dir.display()))?;
+    tmp.write_all(bytes)?;
+    tmp.as_file().sync_all()?;
+    tmp.persist(path)
+        .with_context(|| format!("renaming into {}", path.display()))?;
+    sync_dir(dir)
+}
+
+/// Makes a rename in `dir` durable.
+pub fn sync_dir(dir: &Path) -> anyhow::Result<()> {
+    std::fs::File::open(dir)
+        .and_then(|d| d.sync_all())
+        .with_context(|| format!("syncing {}", dir.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use spindle_common::tile::TileRect;
+
+    #[test]
+    fn a_tile_round_trips_bit_for_bit_and_a_tampered_file_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = TileStore::open(dir.path().join("jobs")).unwrap();
+        let rect = TileRect {
+            x: 0,
+            y: 0,
+            width: 3,
+            height: 2,
+        };
+        let mut pixels = TilePixels::black(rect);
+        pixels.total[1] = 0.1;
+        pixels.surface[2] = f32::from_bits(0x0000_0001);
+        pixels.single_scatter[17] = 1e30;
+        let hash = pixel_hash(&pixels);
+        store.write(1, 4, &hash, &pixels).unwrap();
+        assert_eq!(store.read(1, 4, &hash).unwrap(), pixels);
+
+        let mut other = pixels.clone();
+        other.total[0] = 2.0;
+        let path = store.tile_path(1, 4, &hash);
+        std::fs::write(&path, serde_json::to_vec(&other).unwrap()).unwrap();
+        assert!(store.read(1, 4, &hash).is_err());
+
+        store.remove_job(1).unwrap();
+        assert!(!store.job_dir(1).exists());
+        store.remove_job(1).unwrap();
+    }
+}

@@ -1,0 +1,225 @@
+//! Shared helpers of the coordinator's tests: a coordinator on a temporary data directory,
+//! driven in process through `tower::ServiceExt::oneshot` (no socket), and fake tiles of
+//! constant colour.
+
+#![allow(dead_code)] // Each test file uses its own subset of the helpers.
+
+use std::time::Duration;
+
+use axum::Router;
+use axum::body::{Body, Bytes};
+use axum::http::{Method, Request, StatusCode};
+use http_body_util::BodyExt;
+use serde_json::{Value, json};
+use spindle_common::protocol::{JobInfo, Lease, TileUpload, pixel_hash};
+use spindle_common::stats::RenderStats;
+use spindle_common::tile::{TilePixels, TileRect};
+use spindle_server::{AppState, Config, app};
+use tower::ServiceExt;
+
+pub const CLIENT: &str = "client-secret";
+pub const WORKER: &str = "worker-secret";
+
+/// A coordinator and its data directory.
+pub struct Coordinator {
+    pub app: Router,
+    pub state: AppState,
+    pub config: Config,
+}
+
+pub fn config(dir: &std::path::Path) -> Config {
+    let mut config = Config::new(dir);
+    config.client_token = Some(CLIENT.into());
+    config.worker_token = Some(WORKER.into());
+    config
+}
+
+impl Coordinator {
+    pub async fn open(config: Config) -> Coordinator {
+        let state = AppState::open(config.clone())
+            .await
+            .expect("coordinator opens");
+        Coordinator {
+            app: app(state.clone()),
+            state,
+            config,
+        }
+    }
+
+    /// Sends a request; `token` is the bearer token (if any); `body` is sent as is.
+    pub async fn send(
+        &self,
+        method: Method,
+        uri: &str,
+        token: Option<&str>,
+        body: impl Into<Body>,
+    ) -> (StatusCode, Bytes) {
+        let mut request = Request::builder().method(method).uri(uri);
+        if let Some(token) = token {
+            request = request.header("authorization", format!("Bearer {token}"));
+        }
+        let response = self
+            .app
+            .clone()
+            .oneshot(request.body(body.into()).unwrap())
+            .await
+            .unwrap();
+        let status = response.status();
+        let bytes = response.into_body().collect().await.unwrap().to_bytes();
+        (status, bytes)
+    }
+
+    pub async fn client(
+        &self,
+        method: Method,
+        uri: &str,
+        body: Option<Value>,
+    ) -> (StatusCode, Value) {
+        self.json(method, uri, CLIENT, body).await
+    }
+
+    pub async fn worker(
+        &self,
+        method: Method,
+        uri: &str,
+        body: Option<Value>,
+    ) -> (StatusCode, Value) {
+        self.json(method, uri, WORKER, body).await
+    }
+
+    async fn json(
+        &self,
+        method: Method,
+        uri: &str,
+        token: &str,
+        body: Option<Value>,
+    ) -> (StatusCode, Value) {
+        let body = body.map(|b| b.to_string()).unwrap_or_default();
+        let (status, bytes) = self.send(method, uri, Some(token), body).await;
+        let value = if bytes.is_empty() {
+            Value::Null
+        } else {
+            serde_json::from_slice(&bytes)
+                .unwrap_or_else(|_| panic!("{uri}: not JSON: {}", String::from_utf8_lossy(&bytes)))
+        };
+        (status, value)
+    }
+
+    pub async fn submit(&self, body: Value) -> JobInfo {
+        let (status, info) = self.client(Method::POST, "/v1/jobs", Some(body)).await;
+        assert_eq!(status, StatusCode::CREATED, "{info}");
+        serde_json::from_value(info).unwrap()
+    }
+
+    pub async fn job(&self, id: u64) -> JobInfo {
+        let (status, info) = self
+            .client(Method::GET, &format!("/v1/jobs/{id}"), None)
+            .await;
+        assert_eq!(status, StatusCode::OK, "{info}");
+        serde_json::from_value(info).unwrap()
+    }
+
+    pub async fn register(&self, name: &str) -> u64 {
+        let (status, v) = self
+            .worker(
+                Method::POST,
+                "/v1/workers",
+                Some(json!({"name": name, "threads": 2})),
+            )
+            .await;
+        assert_eq!(status, StatusCode::OK, "{v}");
+        v["worker_id"].as_u64().unwrap()
+    }
+
+    /// Asks for a lease without waiting; `None` on 204.
+    pub async fn lease(&self, worker: u64) -> Option<Lease> {
+        let (status, v) = self
+            .worker(
+                Method::POST,
+                &format!("/v1/workers/{worker}/lease"),
+                Some(json!({"wait_ms": 0})),
+            )
+            .await;
+        match status {
+            StatusCode::OK => Some(serde_json::from_value(v).unwrap()),
+            StatusCode::NO_CONTENT => None,
+            other => panic!("lease: {other} {v}"),
+        }
+    }
+
+    /// Uploads a tile; returns the status and body.
+    pub async fn upload(&self, job: u64, tile: u32, upload: &TileUpload) -> (StatusCode, Value) {
+        self.worker(
+            Method::PUT,
+            &format!("/v1/jobs/{job}/tiles/{tile}"),
+            Some(serde_json::to_value(upload).unwrap()),
+        )
+        .await
+    }
+
+    /// Waits (up to 30 s) until the job is finished.
+    pub async fn wait_finished(&self, id: u64) -> JobInfo {
+        for _ in 0..3000 {
+            let info = self.job(id).await;
+            if info.state.is_finished() {
+                return info;
+            }
+            tokio::time::sleep(Duration::from_millis(10)).await;
+        }
+        panic!("job {id} did not finish");
+    }
+}
+
+/// The colour fake tile `index` is painted: distinct per tile and per layer.
+pub fn tile_colour(index: u32, layer: usize, channel: usize) -> f32 {
+    0.25 + index as f32 + 0.125 * layer as f32 + 0.03125 * channel as f32
+}
+
+/// A fake tile of constant colour per layer and channel, with one camera ray per pixel and one
+/// sample in its statistics.
+pub fn fake_tile(rect: TileRect, index: u32) -> TilePixels {
+    let mut pixels = TilePixels::black(rect);
+    for (layer, buffer) in [
+        &mut pixels.total,
+        &mut pixels.surface,
+        &mut pixels.single_scatter,
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        for (i, v) in buffer.iter_mut().enumerate() {
+            *v = tile_colour(index, layer, i % 3);
+        }
+    }
+    pixels.stats = RenderStats {
+        camera_rays: rect.pixel_count() as u64,
+        samples: 1,
+        ..RenderStats::default()
+    };
+    pixels
+}
+
+/// The upload of a lease's fake tile.
+pub fn upload_for(lease: &Lease, worker: u64) -> TileUpload {
+    let pixels = fake_tile(lease.rect, lease.tile_index);
+    TileUpload {
+        worker_id: worker,
+        epoch: lease.epoch,
+        hash: pixel_hash(&pixels),
+        pixels,
+    }
+}
+
+/// A small valid scene without assets: `width` × `height`, one sphere.
+pub fn scene(width: u32, height: u32) -> Value {
+    json!({
+        "camera": {"position": [0, 0, 5], "look_at": [0, 0, 0], "fov_y": 40},
+        "film": {"width": width, "height": height, "spp": 2, "seed": 7},
+        "lights": [{"type": "point", "position": [0, 5, 0], "intensity": [10, 10, 10]}],
+        "objects": [{
+            "shape": {"type": "icosphere", "radius": 1, "subdivisions": 2},
+            "material": {"type": "dielectric", "eta": 1.5,
+                         "medium": {"sigma_t": [1, 1, 1], "albedo": [0.9, 0.9, 0.9]}}
+        }]
+    })
+}
