@@ -12,7 +12,7 @@ use spindle_common::stats::RenderStats;
 use super::ends::PathEnds;
 use super::patch::{Residual, TrianglePatch};
 use super::small_list::SmallList;
-use super::solve::{NewtonSettings, Slice, newton};
+use super::solve::{NewtonSettings, Slice, is_physical, newton};
 use crate::render::fresnel;
 
 /// The three edges of a triangle in barycentric coordinates.
@@ -26,8 +26,45 @@ pub enum Edge {
     Ab1,
 }
 
-/// Sign changes looked for along each edge (the scan resolves crossings further apart than this).
-const EDGE_SCAN: usize = 16;
+/// Sign changes looked for along each line (the scan resolves crossings further apart than 1/16
+/// of the line).
+const LINE_SCAN: usize = 16;
+
+/// A straight segment `(a, b) = origin + s·dir`, `s ∈ [0, 1]`, in barycentric coordinates: an
+/// edge of the triangle or a line across it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BarycentricLine {
+    /// `(a, b)` at s = 0.
+    pub origin: [f64; 2],
+    /// `(Δa, Δb)` from s = 0 to s = 1.
+    pub dir: [f64; 2],
+}
+
+impl BarycentricLine {
+    /// `(a, b)` at s.
+    #[inline]
+    pub fn at(&self, s: f64) -> (f64, f64) {
+        (
+            self.origin[0] + s * self.dir[0],
+            self.origin[1] + s * self.dir[1],
+        )
+    }
+
+    /// The slice of parameter space on this line, with slice coordinates `(u, v) = (t, s)`.
+    pub fn slice(&self) -> Slice {
+        Slice {
+            origin: [0.0, self.origin[0], self.origin[1]],
+            du: [1.0, 0.0, 0.0],
+            dv: [0.0, self.dir[0], self.dir[1]],
+        }
+    }
+
+    /// A signed offset of `(a, b)` from the line's support, to detect crossings.
+    #[inline]
+    pub fn side(&self, a: f64, b: f64) -> f64 {
+        (a - self.origin[0]) * self.dir[1] - (b - self.origin[1]) * self.dir[0]
+    }
+}
 
 impl Edge {
     /// All three edges.
@@ -43,25 +80,27 @@ impl Edge {
         }
     }
 
-    /// The slice of parameter space on this edge, with slice coordinates `(u, v) = (t, s)`.
-    pub fn slice(self) -> Slice {
+    /// The edge as a line, with the parameter s of [`Edge::barycentric`].
+    pub fn line(self) -> BarycentricLine {
         match self {
-            Edge::A0 => Slice {
-                origin: [0.0; 3],
-                du: [1.0, 0.0, 0.0],
-                dv: [0.0, 0.0, 1.0],
+            Edge::A0 => BarycentricLine {
+                origin: [0.0, 0.0],
+                dir: [0.0, 1.0],
             },
-            Edge::B0 => Slice {
-                origin: [0.0; 3],
-                du: [1.0, 0.0, 0.0],
-                dv: [0.0, 1.0, 0.0],
+            Edge::B0 => BarycentricLine {
+                origin: [0.0, 0.0],
+                dir: [1.0, 0.0],
             },
-            Edge::Ab1 => Slice {
-                origin: [0.0, 1.0, 0.0],
-                du: [1.0, 0.0, 0.0],
-                dv: [0.0, -1.0, 1.0],
+            Edge::Ab1 => BarycentricLine {
+                origin: [1.0, 0.0],
+                dir: [-1.0, 1.0],
             },
         }
+    }
+
+    /// The slice of parameter space on this edge, with slice coordinates `(u, v) = (t, s)`.
+    pub fn slice(self) -> Slice {
+        self.line().slice()
     }
 
     /// The component of a parameter-space direction `g = (g_t, g_a, g_b)` pointing into the
@@ -140,6 +179,48 @@ fn skew(patch: &TrianglePatch, ends: &PathEnds, a: f64, b: f64) -> Option<(f64, 
     Some((value, t, lambda))
 }
 
+/// Calls `found(x, residual)` for every point `x = (t, a, b)` where the curve crosses `line` at
+/// `s ∈ [0, 1]` and `t ∈ t_range`: sign changes of the skew scalar on [`LINE_SCAN`] intervals, each
+/// solved exactly by Newton on the line in `(t, s)`. Newton work and failures go to `stats`.
+pub fn line_crossings(
+    patch: &TrianglePatch,
+    ends: &PathEnds,
+    line: &BarycentricLine,
+    t_range: (f64, f64),
+    tolerance: f64,
+    stats: &mut RenderStats,
+    mut found: impl FnMut([f64; 3], &Residual),
+) {
+    let mut previous: Option<(f64, (f64, f64, f64))> = None;
+    for i in 0..=LINE_SCAN {
+        let s = i as f64 / LINE_SCAN as f64;
+        let (a, b) = line.at(s);
+        let current = skew(patch, ends, a, b).map(|v| (s, v));
+        if let (Some((s0, v0)), Some((s1, v1))) = (previous, current) {
+            // A sign change with the meeting point in front of P (inside the medium).
+            if v0.0 * v1.0 <= 0.0 && (v0.2 > 0.0 || v1.2 > 0.0) && v0.0 != v1.0 {
+                let theta = v0.0 / (v0.0 - v1.0);
+                let s_guess = s0 + theta * (s1 - s0);
+                let t_guess = (v0.1 + theta * (v1.1 - v0.1)).clamp(t_range.0, t_range.1);
+                let settings = NewtonSettings::new(tolerance, t_range);
+                let (zero, spent) =
+                    newton(patch, ends, &line.slice(), (t_guess, s_guess), &settings);
+                stats.newton_iterations += spent as u64;
+                match zero {
+                    Some(z) => {
+                        let (t, s) = z.uv;
+                        if (-1e-12..=1.0 + 1e-12).contains(&s) && t >= t_range.0 && t <= t_range.1 {
+                            found(z.x, &z.residual);
+                        }
+                    }
+                    None => stats.newton_failures += 1,
+                }
+            }
+        }
+        previous = current;
+    }
+}
+
 /// Appends to `out` every crossing of the curve with `edge` at `t ∈ t_range` (beyond the list's
 /// capacity they are dropped). Newton evaluations and failures go to `stats`.
 pub fn edge_crossings<const N: usize>(
@@ -151,47 +232,29 @@ pub fn edge_crossings<const N: usize>(
     out: &mut SmallList<Crossing, N>,
     stats: &mut RenderStats,
 ) {
-    let scan = |s: f64| {
-        let (a, b) = edge.barycentric(s);
-        skew(patch, ends, a, b)
-    };
-    let mut previous: Option<(f64, (f64, f64, f64))> = None;
-    for i in 0..=EDGE_SCAN {
-        let s = i as f64 / EDGE_SCAN as f64;
-        let current = scan(s).map(|v| (s, v));
-        if let (Some((s0, v0)), Some((s1, v1))) = (previous, current) {
-            // A sign change with the meeting point in front of P (inside the medium).
-            if v0.0 * v1.0 <= 0.0 && (v0.2 > 0.0 || v1.2 > 0.0) && v0.0 != v1.0 {
-                let theta = v0.0 / (v0.0 - v1.0);
-                let s_guess = s0 + theta * (s1 - s0);
-                let t_guess = v0.1 + theta * (v1.1 - v0.1);
-                let settings = NewtonSettings::new(tolerance, t_range);
-                let t_start = t_guess.clamp(t_range.0, t_range.1);
-                let (zero, spent) =
-                    newton(patch, ends, &edge.slice(), (t_start, s_guess), &settings);
-                stats.newton_iterations += spent as u64;
-                match zero {
-                    Some(z) => {
-                        let (t, s) = z.uv;
-                        if (-1e-12..=1.0 + 1e-12).contains(&s) && t >= t_range.0 && t <= t_range.1 {
-                            push_crossing(out, edge, z.x, &z.residual);
-                        }
-                    }
-                    None => stats.newton_failures += 1,
-                }
-            }
-        }
-        previous = current;
-    }
+    line_crossings(
+        patch,
+        ends,
+        &edge.line(),
+        t_range,
+        tolerance,
+        stats,
+        |x, r| push_crossing(out, patch, edge, x, r),
+    );
 }
 
-/// Adds a crossing unless it is a duplicate of one already found or has no usable tangent.
+/// Adds a crossing unless it is not a physical path, a duplicate of one already found, or has no
+/// usable tangent.
 fn push_crossing<const N: usize>(
     out: &mut SmallList<Crossing, N>,
+    patch: &TrianglePatch,
     edge: Edge,
     x: [f64; 3],
     r: &Residual,
 ) {
+    if !is_physical(patch, r) {
+        return;
+    }
     let Some(g) = r.tangent() else { return };
     let Some(bound) = classify(edge, g) else {
         return;

@@ -288,15 +288,11 @@ impl RefractionPath {
         if !patch.contains(a, b, INSIDE_TOLERANCE) {
             return None;
         }
-        let cos_l = r.omega_l.dot(r.normal_s);
-        let cos_v = -r.omega_v.dot(r.normal_s);
-        if !(cos_l > MIN_COS_LIGHT
-            && cos_v > 0.0
-            && r.omega_l.dot(patch.normal_g) > 0.0
-            && r.omega_v.dot(patch.normal_g) < 0.0)
-        {
+        if !is_physical(patch, r) {
             return None;
         }
+        let cos_l = r.omega_l.dot(r.normal_s);
+        let cos_v = -r.omega_v.dot(r.normal_s);
         let d_factor = distance_factor(patch, ends.eta, r);
         if !d_factor.is_finite() || d_factor <= 0.0 {
             return None;
@@ -317,6 +313,16 @@ impl RefractionPath {
             branch: r.oriented_tangent()[0],
         })
     }
+}
+
+/// Whether a zero of f is a physical refraction (ignoring the triangle's extent): L in front of and
+/// V behind both the shading and the geometric tangent planes (physics.md §2.5 item 3), and a
+/// non-grazing exit, `c_L > MIN_COS_LIGHT`.
+pub fn is_physical(patch: &TrianglePatch, r: &Residual) -> bool {
+    r.omega_l.dot(r.normal_s) > MIN_COS_LIGHT
+        && r.omega_v.dot(r.normal_s) < 0.0
+        && r.omega_l.dot(patch.normal_g) > 0.0
+        && r.omega_v.dot(patch.normal_g) < 0.0
 }
 
 /// Solves for the refraction path at the fixed camera point `V(t)`, starting from `guess = (a, b)`.
