@@ -157,6 +157,9 @@ pub fn body_error(e: axum::Error) -> Error {
         if s.is::<http_body_util::LengthLimitError>() {
             return Error::TooLarge("body: larger than this route accepts".into());
         }
+        if s.is::<tower_http::timeout::TimeoutError>() {
+            return Error::Timeout("body: not received in time".into());
+        }
         source = s.source();
     }
     Error::BadRequest(format!("body: {e}"))

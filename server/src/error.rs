@@ -24,6 +24,9 @@ pub enum Error {
     /// The request conflicts with the current state: a stale lease, a job not done yet (409).
     #[error("{0}")]
     Conflict(String),
+    /// The body did not arrive in time (408).
+    #[error("{0}")]
+    Timeout(String),
     /// The body is larger than the route allows (413).
     #[error("{0}")]
     TooLarge(String),
@@ -46,6 +49,7 @@ impl Error {
             Error::Unauthorized(_) => StatusCode::UNAUTHORIZED,
             Error::NotFound(_) => StatusCode::NOT_FOUND,
             Error::Conflict(_) => StatusCode::CONFLICT,
+            Error::Timeout(_) => StatusCode::REQUEST_TIMEOUT,
             Error::TooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
             Error::TooMany(_) => StatusCode::TOO_MANY_REQUESTS,
             Error::Unavailable(_) => StatusCode::SERVICE_UNAVAILABLE,

@@ -30,10 +30,16 @@ impl<S: Send + Sync> FromRequest<S> for RawBody {
 
 fn bytes_rejection(e: BytesRejection) -> Error {
     if e.status() == StatusCode::PAYLOAD_TOO_LARGE {
-        Error::TooLarge("body: larger than this route accepts".into())
-    } else {
-        Error::BadRequest(format!("body: {}", e.body_text()))
+        return Error::TooLarge("body: larger than this route accepts".into());
     }
+    let mut source: Option<&(dyn std::error::Error + 'static)> = Some(&e);
+    while let Some(s) = source {
+        if s.is::<tower_http::timeout::TimeoutError>() {
+            return Error::Timeout("body: not received in time".into());
+        }
+        source = s.source();
+    }
+    Error::BadRequest(format!("body: {}", e.body_text()))
 }
 
 /// A JSON body of type `T`.

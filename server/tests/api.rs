@@ -1,0 +1,460 @@
+//! The API's edges: tokens, bad input of every kind (each the right 4xx with a JSON error
+//! naming the problem, existing jobs untouched), idempotent submission, content-addressed
+//! assets, and an OpenAPI document listing exactly the routes served.
+
+mod support;
+
+use std::collections::BTreeSet;
+
+use axum::http::{Method, StatusCode};
+use serde_json::{Value, json};
+use spindle_common::protocol::{JobInfo, asset_hash};
+use spindle_server::api::routes;
+use support::*;
+
+/// The body of an error response; fails unless it is `{"error": "..."}`.
+fn error_of(bytes: &[u8]) -> String {
+    let v: Value = serde_json::from_slice(bytes)
+        .unwrap_or_else(|_| panic!("not JSON: {}", String::from_utf8_lossy(bytes)));
+    let obj = v.as_object().unwrap();
+    assert_eq!(obj.len(), 1, "{v}");
+    obj["error"].as_str().unwrap().to_string()
+}
+
+#[tokio::test]
+async fn tokens_guard_their_routes() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = Coordinator::open(config(dir.path())).await;
+    for (method, uri, token) in [
+        (Method::GET, "/v1/jobs", None),
+        (Method::GET, "/v1/jobs", Some("wrong")),
+        (Method::GET, "/v1/jobs", Some(WORKER)), // a worker token is not a client token
+        (Method::POST, "/v1/workers", Some(CLIENT)), // and the other way round
+        (Method::POST, "/v1/workers/1/lease", None),
+    ] {
+        let (status, body) = c.send(method.clone(), uri, token, "{}").await;
+        assert_eq!(status, StatusCode::UNAUTHORIZED, "{method} {uri} {token:?}");
+        assert!(!error_of(&body).is_empty());
+    }
+    for uri in ["/healthz", "/readyz", "/v1/openapi.json"] {
+        assert_eq!(
+            c.send(Method::GET, uri, None, "").await.0,
+            StatusCode::OK,
+            "{uri}"
+        );
+    }
+    assert_eq!(
+        c.send(Method::GET, "/v1/jobs", Some(CLIENT), "").await.0,
+        StatusCode::OK
+    );
+
+    // Without tokens configured (loopback), routes are open.
+    let open_dir = tempfile::tempdir().unwrap();
+    let open = Coordinator::open(spindle_server::Config::new(open_dir.path())).await;
+    assert_eq!(
+        open.send(Method::GET, "/v1/jobs", None, "").await.0,
+        StatusCode::OK
+    );
+}
+
+#[tokio::test]
+async fn bad_input_gets_a_clear_4xx_and_leaves_existing_jobs_untouched() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut cfg = config(dir.path());
+    cfg.limits.max_triangles = 1000;
+    cfg.limits.max_json_bytes = 64 << 10;
+    let c = Coordinator::open(cfg).await;
+    let existing = c
+        .submit(json!({"scene": scene(16, 16), "tile_size": 8}))
+        .await;
+    let w = c.register("w").await;
+    let lease = c.lease(w).await.unwrap();
+    let before = c.job(existing.id).await;
+
+    let with_scene = |edit: &dyn Fn(&mut Value)| {
+        let mut body = json!({"scene": scene(16, 16)});
+        edit(&mut body);
+        body.to_string()
+    };
+    let huge = "x".repeat(100 << 10);
+    let cases: Vec<(&str, String, StatusCode, &str)> = vec![
+        (
+            "malformed JSON",
+            "{\"scene\": ".into(),
+            StatusCode::BAD_REQUEST,
+            "scene: EOF while parsing",
+        ),
+        (
+            "not an object",
+            "42".into(),
+            StatusCode::BAD_REQUEST,
+            "body: invalid type",
+        ),
+        (
+            "unknown top-level field",
+            with_scene(&|b| b["spp"] = json!(4)),
+            StatusCode::BAD_REQUEST,
+            "unknown field `spp`",
+        ),
+        (
+            "unknown scene field",
+            with_scene(&|b| b["scene"]["film"]["iso"] = json!(100)),
+            StatusCode::BAD_REQUEST,
+            "scene.film.iso: unknown field `iso`",
+        ),
+        (
+            "wrong type",
+            with_scene(&|b| b["scene"]["film"]["width"] = json!("wide")),
+            StatusCode::BAD_REQUEST,
+            "scene.film.width: invalid type",
+        ),
+        (
+            "huge dimensions",
+            with_scene(&|b| b["scene"]["film"]["width"] = json!(1_000_000)),
+            StatusCode::BAD_REQUEST,
+            "scene.film.width",
+        ),
+        (
+            "invalid medium",
+            with_scene(&|b| {
+                b["scene"]["objects"][0]["material"]["medium"]["sigma_t"] = json!([1, -1, 1])
+            }),
+            StatusCode::BAD_REQUEST,
+            "scene.objects[0].material.medium.sigma_t",
+        ),
+        (
+            "too many triangles",
+            with_scene(&|b| b["scene"]["objects"][0]["shape"]["subdivisions"] = json!(3)),
+            StatusCode::BAD_REQUEST,
+            "more than 1000 triangles",
+        ),
+        (
+            "tile size",
+            with_scene(&|b| b["tile_size"] = json!(0)),
+            StatusCode::BAD_REQUEST,
+            "tile_size: must be between",
+        ),
+        (
+            "OBJ without its asset",
+            with_scene(&|b| {
+                b["scene"]["objects"][0]["shape"] = json!({"type": "obj", "path": "m.obj"})
+            }),
+            StatusCode::BAD_REQUEST,
+            "scene.objects[0].shape.path: no asset given for \"m.obj\"",
+        ),
+        (
+            "asset never uploaded",
+            with_scene(&|b| {
+                b["scene"]["objects"][0]["shape"] = json!({"type": "obj", "path": "m.obj"});
+                b["assets"] = json!({"m.obj": asset_hash(b"not uploaded")});
+            }),
+            StatusCode::BAD_REQUEST,
+            "is not uploaded",
+        ),
+        (
+            "asset hash malformed",
+            with_scene(&|b| b["assets"] = json!({"m.obj": "../../etc/passwd"})),
+            StatusCode::BAD_REQUEST,
+            "assets.m.obj: \"../../etc/passwd\" is not a blake3 hash",
+        ),
+        (
+            "oversized body",
+            json!({"scene": scene(16, 16), "pad": huge}).to_string(),
+            StatusCode::PAYLOAD_TOO_LARGE,
+            "larger than this route accepts",
+        ),
+    ];
+    for (what, body, status, message) in cases {
+        let (got, bytes) = c.send(Method::POST, "/v1/jobs", Some(CLIENT), body).await;
+        let error = error_of(&bytes);
+        assert_eq!(got, status, "{what}: {error}");
+        assert!(
+            error.contains(message),
+            "{what}: {error:?} lacks {message:?}"
+        );
+    }
+
+    // Other routes: bad path segment, bad hash, unknown route, wrong method, stale epoch.
+    let (status, bytes) = c.send(Method::GET, "/v1/jobs/abc", Some(CLIENT), "").await;
+    assert_eq!(status, StatusCode::BAD_REQUEST, "{}", error_of(&bytes));
+    let (status, bytes) = c
+        .send(Method::PUT, "/v1/assets/..%2F..%2Fetc", Some(CLIENT), "x")
+        .await;
+    assert_eq!(status, StatusCode::BAD_REQUEST, "{}", error_of(&bytes));
+    let (status, bytes) = c.send(Method::GET, "/v1/nothing", Some(CLIENT), "").await;
+    assert_eq!(status, StatusCode::NOT_FOUND);
+    assert!(error_of(&bytes).contains("no route"));
+    let (status, bytes) = c.send(Method::PATCH, "/v1/jobs", Some(CLIENT), "").await;
+    assert_eq!(status, StatusCode::METHOD_NOT_ALLOWED);
+    error_of(&bytes);
+    let mut stale = upload_for(&lease, w);
+    stale.epoch = 0;
+    let (status, v) = c.upload(existing.id, lease.tile_index, &stale).await;
+    assert_eq!(status, StatusCode::CONFLICT, "{v}");
+    let (status, v) = c
+        .worker(
+            Method::POST,
+            "/v1/workers",
+            Some(json!({"name": "", "threads": 1})),
+        )
+        .await;
+    assert_eq!(status, StatusCode::BAD_REQUEST, "{v}");
+    let (status, bytes) = c
+        .send(
+            Method::PUT,
+            &format!("/v1/jobs/{}/tiles/0", existing.id),
+            Some(WORKER),
+            "{]",
+        )
+        .await;
+    assert_eq!(status, StatusCode::BAD_REQUEST, "{}", error_of(&bytes));
+
+    // The existing job is as it was, and still the only one.
+    let after = c.job(existing.id).await;
+    assert_eq!(
+        JobInfo {
+            elapsed_s: 0.0,
+            ..after
+        },
+        JobInfo {
+            elapsed_s: 0.0,
+            ..before
+        },
+        "only time moved"
+    );
+    let (_, list) = c.client(Method::GET, "/v1/jobs", None).await;
+    assert_eq!(list["jobs"].as_array().unwrap().len(), 1);
+    let (status, _) = c
+        .upload(existing.id, lease.tile_index, &upload_for(&lease, w))
+        .await;
+    assert_eq!(status, StatusCode::OK, "the job still works");
+}
+
+#[tokio::test]
+async fn the_job_count_is_limited() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut cfg = config(dir.path());
+    cfg.limits.max_active_jobs = 2;
+    let c = Coordinator::open(cfg).await;
+    let first = c.submit(json!({"scene": scene(8, 8)})).await;
+    c.submit(json!({"scene": scene(8, 8)})).await;
+    let (status, v) = c
+        .client(
+            Method::POST,
+            "/v1/jobs",
+            Some(json!({"scene": scene(8, 8)})),
+        )
+        .await;
+    assert_eq!(status, StatusCode::TOO_MANY_REQUESTS, "{v}");
+    assert!(v["error"].as_str().unwrap().contains("the limit is 2"));
+    // A finished (here: cancelled) job no longer counts.
+    c.client(Method::POST, &format!("/v1/jobs/{}/cancel", first.id), None)
+        .await;
+    c.submit(json!({"scene": scene(8, 8)})).await;
+}
+
+#[tokio::test]
+async fn an_idempotency_key_returns_the_same_job() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = Coordinator::open(config(dir.path())).await;
+    let body = json!({"scene": scene(8, 8)}).to_string();
+    let submit = |key: &'static str, body: String| {
+        let app = c.app.clone();
+        async move {
+            use http_body_util::BodyExt;
+            use tower::ServiceExt;
+            let request = axum::http::Request::post("/v1/jobs")
+                .header("authorization", format!("Bearer {CLIENT}"))
+                .header("idempotency-key", key)
+                .body(axum::body::Body::from(body))
+                .unwrap();
+            let response = app.oneshot(request).await.unwrap();
+            let status = response.status();
+            let bytes = response.into_body().collect().await.unwrap().to_bytes();
+            (status, bytes)
+        }
+    };
+    let (s1, b1) = submit("retry-1", body.clone()).await;
+    let (s2, b2) = submit("retry-1", body.clone()).await;
+    assert_eq!((s1, s2), (StatusCode::CREATED, StatusCode::OK));
+    let (j1, j2): (JobInfo, JobInfo) = (
+        serde_json::from_slice(&b1).unwrap(),
+        serde_json::from_slice(&b2).unwrap(),
+    );
+    assert_eq!(j1.id, j2.id);
+    // The same key with a different request is a conflict, not a silent reuse.
+    let (s3, b3) = submit(
+        "retry-1",
+        json!({"scene": scene(8, 8), "priority": 3}).to_string(),
+    )
+    .await;
+    assert_eq!(s3, StatusCode::CONFLICT, "{}", error_of(&b3));
+    let (_, list) = c.client(Method::GET, "/v1/jobs", None).await;
+    assert_eq!(list["jobs"].as_array().unwrap().len(), 1);
+    // The key survives a restart.
+    drop(c);
+    let c = Coordinator::open(config(dir.path())).await;
+    let request = axum::http::Request::post("/v1/jobs")
+        .header("authorization", format!("Bearer {CLIENT}"))
+        .header("idempotency-key", "retry-1")
+        .body(axum::body::Body::from(body))
+        .unwrap();
+    let response = tower::ServiceExt::oneshot(c.app.clone(), request)
+        .await
+        .unwrap();
+    assert_eq!(response.status(), StatusCode::OK);
+}
+
+#[tokio::test]
+async fn assets_are_stored_by_verified_hash_and_obj_triangles_are_counted() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut cfg = config(dir.path());
+    cfg.limits.max_triangles = 20 * 16 + 2; // the sphere (s = 2) and a quad
+    cfg.limits.max_asset_bytes = 4096;
+    let c = Coordinator::open(cfg).await;
+    let mesh = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n".to_vec();
+    let hash = asset_hash(&mesh);
+
+    let (status, v) = c
+        .client(
+            Method::POST,
+            "/v1/assets/missing",
+            Some(json!({"hashes": [hash, hash]})),
+        )
+        .await;
+    assert_eq!(status, StatusCode::OK);
+    assert_eq!(v["missing"], json!([hash]));
+
+    let wrong = asset_hash(b"something else");
+    let (status, bytes) = c
+        .send(
+            Method::PUT,
+            &format!("/v1/assets/{wrong}"),
+            Some(CLIENT),
+            mesh.clone(),
+        )
+        .await;
+    assert_eq!(status, StatusCode::BAD_REQUEST);
+    assert!(error_of(&bytes).contains(&format!("hash to {hash}")));
+    let (status, bytes) = c
+        .send(
+            Method::PUT,
+            &format!("/v1/assets/{wrong}"),
+            Some(CLIENT),
+            vec![b'v'; 5000],
+        )
+        .await;
+    assert_eq!(
+        status,
+        StatusCode::PAYLOAD_TOO_LARGE,
+        "{}",
+        error_of(&bytes)
+    );
+    assert_eq!(
+        std::fs::read_dir(dir.path().join("assets/tmp"))
+            .unwrap()
+            .count(),
+        0,
+        "failed uploads leave nothing behind"
+    );
+
+    let (status, _) = c
+        .send(
+            Method::PUT,
+            &format!("/v1/assets/{hash}"),
+            Some(CLIENT),
+            mesh.clone(),
+        )
+        .await;
+    assert_eq!(status, StatusCode::OK);
+    let (_, v) = c
+        .client(
+            Method::POST,
+            "/v1/assets/missing",
+            Some(json!({"hashes": [hash]})),
+        )
+        .await;
+    assert_eq!(v["missing"], json!([]));
+    let (status, bytes) = c
+        .send(Method::GET, &format!("/v1/assets/{hash}"), Some(WORKER), "")
+        .await;
+    assert_eq!((status, bytes.to_vec()), (StatusCode::OK, mesh.clone()));
+
+    let mut s = scene(8, 8);
+    s["objects"].as_array_mut().unwrap().push(json!({
+        "shape": {"type": "obj", "path": "meshes/quad.obj"},
+        "material": {"type": "diffuse", "reflectance": [0.5, 0.5, 0.5]}
+    }));
+    let job = c
+        .submit(json!({"scene": s, "assets": {"meshes/quad.obj": hash}}))
+        .await;
+    let (status, spec) = c
+        .worker(Method::GET, &format!("/v1/jobs/{}/spec", job.id), None)
+        .await;
+    assert_eq!(status, StatusCode::OK);
+    assert_eq!(spec["assets"]["meshes/quad.obj"], json!(hash));
+    // One more triangle would exceed the limit: the OBJ's faces are counted.
+    let bigger = [mesh.as_slice(), b"f 1 2 3\n"].concat();
+    let bigger_hash = asset_hash(&bigger);
+    let (status, _) = c
+        .send(
+            Method::PUT,
+            &format!("/v1/assets/{bigger_hash}"),
+            Some(CLIENT),
+            bigger,
+        )
+        .await;
+    assert_eq!(status, StatusCode::OK);
+    let (status, v) = c
+        .client(
+            Method::POST,
+            "/v1/jobs",
+            Some(json!({"scene": s, "assets": {"meshes/quad.obj": bigger_hash}})),
+        )
+        .await;
+    assert_eq!(status, StatusCode::BAD_REQUEST, "{v}");
+    assert!(v["error"].as_str().unwrap().contains("triangles"), "{v}");
+}
+
+#[tokio::test]
+async fn the_openapi_document_lists_exactly_the_routes_served() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = Coordinator::open(config(dir.path())).await;
+    let (status, doc) = c.client(Method::GET, "/v1/openapi.json", None).await;
+    assert_eq!(status, StatusCode::OK);
+    let documented: BTreeSet<(String, String)> = doc["paths"]
+        .as_object()
+        .unwrap()
+        .iter()
+        .flat_map(|(path, item)| {
+            item.as_object()
+                .unwrap()
+                .keys()
+                .filter(|k| ["get", "put", "post", "delete", "patch"].contains(&k.as_str()))
+                .map(move |m| (path.clone(), m.to_uppercase()))
+        })
+        .collect();
+    let served: BTreeSet<(String, String)> = routes(&c.config.limits)
+        .iter()
+        .map(|r| (r.path.to_string(), r.method.to_string()))
+        .collect();
+    assert_eq!(documented, served);
+    assert_eq!(served.len(), 19);
+    // Every served route is reached by its method (not the 404/405 fallbacks).
+    for (path, method) in &served {
+        let uri = path
+            .replace("{hash}", &asset_hash(b""))
+            .replace("{id}", "1")
+            .replace("{job}", "1")
+            .replace("{tile}", "0");
+        let (status, bytes) = c
+            .send(method.parse().unwrap(), &uri, Some(CLIENT), "{}")
+            .await;
+        assert_ne!(status, StatusCode::METHOD_NOT_ALLOWED, "{method} {path}");
+        if status == StatusCode::NOT_FOUND {
+            assert!(!error_of(&bytes).contains("no route"), "{method} {path}");
+        }
+    }
+    assert!(doc["components"]["schemas"]["TileUpload"].is_object());
+    assert!(doc["components"]["securitySchemes"]["worker_token"].is_object());
+}

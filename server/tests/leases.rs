@@ -1,0 +1,287 @@
+//! Lease rules: expiry and re-lease with a higher epoch, stale epochs refused while the newer
+//! lease succeeds, late identical results acknowledged, different ones refused, and the
+//! three-strikes rules for tiles and workers.
+
+mod support;
+
+use std::time::Duration;
+
+use axum::http::{Method, StatusCode};
+use serde_json::json;
+use spindle_common::protocol::{JobState, TileUpload, pixel_hash};
+use support::*;
+
+/// A coordinator whose leases lapse after `ttl`.
+async fn with_ttl(dir: &std::path::Path, ttl: Duration) -> Coordinator {
+    let mut config = config(dir);
+    config.lease_ttl = ttl;
+    Coordinator::open(config).await
+}
+
+#[tokio::test]
+async fn an_expired_lease_is_leased_again_with_a_higher_epoch_and_the_stale_one_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = with_ttl(dir.path(), Duration::from_millis(300)).await;
+    let job = c
+        .submit(json!({"scene": scene(8, 8), "tile_size": 8}))
+        .await;
+    let (old, new) = (c.register("old").await, c.register("new").await);
+    let first = c.lease(old).await.unwrap();
+    assert_eq!(first.epoch, 1);
+    assert!(c.lease(new).await.is_none(), "the only tile is leased");
+
+    tokio::time::sleep(Duration::from_millis(450)).await;
+    let second = c
+        .lease(new)
+        .await
+        .expect("the lapsed tile is handed out again");
+    assert_eq!(
+        (second.tile_index, second.epoch),
+        (first.tile_index, 2),
+        "same tile, next epoch"
+    );
+
+    // The presumed-dead worker's heartbeat and upload are stale now.
+    let (status, err) = c
+        .worker(
+            Method::POST,
+            &format!("/v1/leases/{}/0/heartbeat", job.id),
+            Some(json!({"worker_id": old, "epoch": 1})),
+        )
+        .await;
+    assert_eq!(status, StatusCode::CONFLICT, "{err}");
+    assert!(
+        err["error"].as_str().unwrap().contains("stale lease"),
+        "{err}"
+    );
+    let (status, err) = c.upload(job.id, 0, &upload_for(&first, old)).await;
+    assert_eq!(status, StatusCode::CONFLICT, "{err}");
+    assert_eq!(c.job(job.id).await.tiles_done, 0);
+
+    // The newer lease's upload succeeds.
+    let (status, ack) = c.upload(job.id, 0, &upload_for(&second, new)).await;
+    assert_eq!(status, StatusCode::OK, "{ack}");
+    assert_eq!(ack["outcome"], "accepted");
+
+    // Now the late identical result is acknowledged as a duplicate, a different one refused.
+    let (status, ack) = c.upload(job.id, 0, &upload_for(&first, old)).await;
+    assert_eq!(status, StatusCode::OK, "{ack}");
+    assert_eq!(ack["outcome"], "duplicate");
+    let mut different = upload_for(&first, old);
+    different.pixels.total[0] += 1.0;
+    different.hash = pixel_hash(&different.pixels);
+    let (status, err) = c.upload(job.id, 0, &different).await;
+    assert_eq!(status, StatusCode::CONFLICT, "{err}");
+    assert!(
+        err["error"].as_str().unwrap().contains("determinism fault"),
+        "{err}"
+    );
+
+    let info = c.wait_finished(job.id).await;
+    assert_eq!(info.state, JobState::Done);
+    assert_eq!(info.tiles_done, 1);
+    assert_eq!(info.stats.samples, 1, "the duplicate was not counted");
+}
+
+#[tokio::test]
+async fn a_lapsed_lease_nobody_took_can_still_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = with_ttl(dir.path(), Duration::from_millis(200)).await;
+    let job = c
+        .submit(json!({"scene": scene(8, 8), "tile_size": 8}))
+        .await;
+    let w = c.register("slow").await;
+    let lease = c.lease(w).await.unwrap();
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    // Nobody else asked: the slow worker's heartbeat revives its lease, and its upload counts.
+    let (status, _) = c
+        .worker(
+            Method::POST,
+            &format!("/v1/leases/{}/0/heartbeat", job.id),
+            Some(json!({"worker_id": w, "epoch": lease.epoch})),
+        )
+        .await;
+    assert_eq!(status, StatusCode::OK);
+    let (status, ack) = c.upload(job.id, 0, &upload_for(&lease, w)).await;
+    assert_eq!(status, StatusCode::OK, "{ack}");
+    assert_eq!(c.wait_finished(job.id).await.state, JobState::Done);
+}
+
+#[tokio::test]
+async fn uploads_are_checked_against_the_lease_and_the_tile() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = Coordinator::open(config(dir.path())).await;
+    let job = c
+        .submit(json!({"scene": scene(16, 8), "tile_size": 8}))
+        .await;
+    let (a, b) = (c.register("a").await, c.register("b").await);
+    let lease = c.lease(a).await.unwrap();
+
+    // Another worker, a future epoch, a wrong hash, a wrong rectangle, a short layer.
+    let (status, _) = c
+        .upload(job.id, lease.tile_index, &upload_for(&lease, b))
+        .await;
+    assert_eq!(status, StatusCode::CONFLICT);
+    let mut future = upload_for(&lease, a);
+    future.epoch += 1;
+    assert_eq!(
+        c.upload(job.id, lease.tile_index, &future).await.0,
+        StatusCode::CONFLICT
+    );
+    let mut bad_hash = upload_for(&lease, a);
+    bad_hash.hash = pixel_hash(&fake_tile(lease.rect, 99));
+    let (status, err) = c.upload(job.id, lease.tile_index, &bad_hash).await;
+    assert_eq!(status, StatusCode::BAD_REQUEST);
+    assert!(err["error"].as_str().unwrap().starts_with("hash:"), "{err}");
+    let mut moved = upload_for(&lease, a);
+    moved.pixels.rect.x += 1;
+    moved.hash = pixel_hash(&moved.pixels);
+    let (status, err) = c.upload(job.id, lease.tile_index, &moved).await;
+    assert_eq!(status, StatusCode::BAD_REQUEST);
+    assert!(
+        err["error"].as_str().unwrap().starts_with("pixels.rect:"),
+        "{err}"
+    );
+    let mut short = upload_for(&lease, a);
+    short.pixels.surface.pop();
+    short.hash = pixel_hash(&short.pixels);
+    let (status, err) = c.upload(job.id, lease.tile_index, &short).await;
+    assert_eq!(status, StatusCode::BAD_REQUEST);
+    assert!(
+        err["error"]
+            .as_str()
+            .unwrap()
+            .starts_with("pixels.surface:"),
+        "{err}"
+    );
+    let (status, _) = c.upload(job.id, 77, &upload_for(&lease, a)).await;
+    assert_eq!(status, StatusCode::NOT_FOUND);
+    let (status, _) = c.upload(job.id + 1, 0, &upload_for(&lease, a)).await;
+    assert_eq!(status, StatusCode::NOT_FOUND);
+    assert_eq!(c.job(job.id).await.tiles_done, 0, "nothing was recorded");
+
+    // The real one goes through.
+    let good: TileUpload = upload_for(&lease, a);
+    assert_eq!(
+        c.upload(job.id, lease.tile_index, &good).await.0,
+        StatusCode::OK
+    );
+    assert_eq!(c.job(job.id).await.tiles_done, 1);
+}
+
+async fn fail(c: &Coordinator, job: u64, tile: u32, worker: u64, epoch: u64) -> StatusCode {
+    c.worker(
+        Method::POST,
+        &format!("/v1/leases/{job}/{tile}/fail"),
+        Some(json!({"worker_id": worker, "epoch": epoch, "reason": format!("worker {worker} broke")})),
+    )
+    .await
+    .0
+}
+
+#[tokio::test]
+async fn a_tile_failing_on_three_workers_fails_its_job() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = Coordinator::open(config(dir.path())).await;
+    let job = c
+        .submit(json!({"scene": scene(8, 8), "tile_size": 8}))
+        .await;
+    let workers = [
+        c.register("a").await,
+        c.register("b").await,
+        c.register("c").await,
+    ];
+    for (n, &w) in workers.iter().enumerate() {
+        let lease = c
+            .lease(w)
+            .await
+            .expect("the tile is offered to a worker that has not failed it");
+        assert_eq!((lease.tile_index, lease.epoch), (0, n as u64 + 1));
+        assert_eq!(
+            fail(&c, job.id, 0, w, lease.epoch).await,
+            StatusCode::NO_CONTENT
+        );
+        // The worker that failed the tile is not given it again.
+        if n < 2 {
+            assert!(c.lease(w).await.is_none());
+        }
+    }
+    let info = c.job(job.id).await;
+    assert_eq!(info.state, JobState::Failed);
+    let error = info.error.unwrap();
+    assert!(
+        error.contains("tile 0") && error.contains("failed on 3 different workers"),
+        "{error}"
+    );
+    assert!(
+        error.contains(&format!("worker {} broke", workers[2])),
+        "{error}"
+    );
+    let fresh = c.register("d").await;
+    assert!(
+        c.lease(fresh).await.is_none(),
+        "a failed job hands out nothing"
+    );
+}
+
+#[tokio::test]
+async fn a_worker_failing_three_tiles_of_a_job_is_kept_off_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = Coordinator::open(config(dir.path())).await;
+    // 4 × 2 tiles of 8 px.
+    let job = c
+        .submit(json!({"scene": scene(32, 16), "tile_size": 8}))
+        .await;
+    let bad = c.register("bad").await;
+    for _ in 0..3 {
+        let lease = c.lease(bad).await.unwrap();
+        assert_eq!(
+            fail(&c, job.id, lease.tile_index, bad, lease.epoch).await,
+            StatusCode::NO_CONTENT
+        );
+    }
+    assert!(
+        c.lease(bad).await.is_none(),
+        "three strikes: no more tiles of this job"
+    );
+    // Other jobs still come to it.
+    let other = c
+        .submit(json!({"scene": scene(8, 8), "tile_size": 8}))
+        .await;
+    assert_eq!(c.lease(bad).await.unwrap().job_id, other.id);
+
+    // A good worker finishes the first job, including the tiles the bad one failed.
+    let good = c.register("good").await;
+    let mut done = 0;
+    while let Some(lease) = c.lease(good).await {
+        let (status, _) = c
+            .upload(lease.job_id, lease.tile_index, &upload_for(&lease, good))
+            .await;
+        assert_eq!(status, StatusCode::OK);
+        done += 1;
+    }
+    assert_eq!(
+        done, 8,
+        "all 8 tiles of the first job (the second's only tile is leased)"
+    );
+    let info = c.wait_finished(job.id).await;
+    assert_eq!(info.state, JobState::Done, "{:?}", info.error);
+}
+
+#[tokio::test]
+async fn an_unknown_worker_is_told_to_register() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = Coordinator::open(config(dir.path())).await;
+    let (status, err) = c
+        .worker(
+            Method::POST,
+            "/v1/workers/99/lease",
+            Some(json!({"wait_ms": 0})),
+        )
+        .await;
+    assert_eq!(status, StatusCode::NOT_FOUND);
+    assert!(
+        err["error"].as_str().unwrap().contains("not registered"),
+        "{err}"
+    );
+}

@@ -1,0 +1,193 @@
+//! A coordinator stopped mid-job and started again on the same data directory resumes every
+//! job: finished tiles are kept and counted once, live leases get a grace period to report,
+//! and the final image is the same as without the restart.
+
+mod support;
+
+use std::time::Duration;
+
+use axum::http::{Method, StatusCode};
+use serde_json::json;
+use spindle_common::protocol::JobState;
+use support::*;
+
+#[tokio::test]
+async fn a_restarted_coordinator_resumes_without_losing_or_doubling_tiles() {
+    let dir = tempfile::tempdir().unwrap();
+    let body = json!({"scene": scene(32, 16), "tile_size": 8}); // 8 tiles
+
+    // Reference: the same job without a restart.
+    let reference_dir = tempfile::tempdir().unwrap();
+    let reference = {
+        let c = Coordinator::open(config(reference_dir.path())).await;
+        let job = c.submit(body.clone()).await;
+        let w = c.register("w").await;
+        while let Some(lease) = c.lease(w).await {
+            c.upload(job.id, lease.tile_index, &upload_for(&lease, w))
+                .await;
+        }
+        assert_eq!(c.wait_finished(job.id).await.state, JobState::Done);
+        c.send(
+            Method::GET,
+            &format!("/v1/jobs/{}/image.exr", job.id),
+            Some(CLIENT),
+            "",
+        )
+        .await
+        .1
+    };
+
+    let (job, worker, held) = {
+        let c = Coordinator::open(config(dir.path())).await;
+        let job = c.submit(body.clone()).await;
+        let w = c.register("w").await;
+        let leases = [
+            c.lease(w).await.unwrap(),
+            c.lease(w).await.unwrap(),
+            c.lease(w).await.unwrap(),
+        ];
+        for lease in &leases[..2] {
+            let (status, _) = c
+                .upload(job.id, lease.tile_index, &upload_for(lease, w))
+                .await;
+            assert_eq!(status, StatusCode::OK);
+        }
+        (job, w, leases[2].clone())
+        // The coordinator is dropped here with one tile leased and two done.
+    };
+
+    let mut cfg = config(dir.path());
+    cfg.restart_grace = Duration::from_secs(60);
+    let c = Coordinator::open(cfg).await;
+    let info = c.job(job.id).await;
+    assert_eq!(info.state, JobState::Running);
+    assert_eq!(info.tiles_done, 2, "finished tiles survive");
+    assert_eq!(info.stats.samples, 2);
+
+    // The worker registered before the restart is still known; its live lease is still its
+    // own during the grace period, so nobody else gets that tile.
+    let other = c.register("other").await;
+    let mut handed_out = Vec::new();
+    while let Some(lease) = c.lease(other).await {
+        assert!(
+            lease.tile_index > 2,
+            "tiles 0 and 1 are done and 2 is leased"
+        );
+        handed_out.push(lease);
+    }
+    assert_eq!(handed_out.len(), 5);
+    let (status, _) = c
+        .worker(
+            Method::POST,
+            &format!("/v1/leases/{}/{}/heartbeat", job.id, held.tile_index),
+            Some(json!({"worker_id": worker, "epoch": held.epoch})),
+        )
+        .await;
+    assert_eq!(
+        status,
+        StatusCode::OK,
+        "the lease from before the restart is renewed"
+    );
+    let (status, ack) = c
+        .upload(job.id, held.tile_index, &upload_for(&held, worker))
+        .await;
+    assert_eq!(
+        (status, ack["outcome"].as_str()),
+        (StatusCode::OK, Some("accepted"))
+    );
+    for lease in &handed_out {
+        let (status, _) = c
+            .upload(job.id, lease.tile_index, &upload_for(lease, other))
+            .await;
+        assert_eq!(status, StatusCode::OK);
+    }
+    let info = c.wait_finished(job.id).await;
+    assert_eq!(info.state, JobState::Done, "{:?}", info.error);
+    assert_eq!(info.tiles_done, 8);
+    assert_eq!(info.stats.samples, 8, "each tile counted once");
+    let (_, exr) = c
+        .send(
+            Method::GET,
+            &format!("/v1/jobs/{}/image.exr", job.id),
+            Some(CLIENT),
+            "",
+        )
+        .await;
+    assert_eq!(exr, reference, "same bytes as without the restart");
+
+    // A second restart after completion keeps the finished job and its image.
+    drop(c);
+    let c = Coordinator::open(config(dir.path())).await;
+    assert_eq!(c.job(job.id).await.state, JobState::Done);
+    let (status, again) = c
+        .send(
+            Method::GET,
+            &format!("/v1/jobs/{}/image.exr", job.id),
+            Some(CLIENT),
+            "",
+        )
+        .await;
+    assert_eq!(status, StatusCode::OK);
+    assert_eq!(again, reference);
+}
+
+#[tokio::test]
+async fn leases_from_before_a_restart_expire_after_the_grace_period() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = {
+        let c = Coordinator::open(config(dir.path())).await;
+        let job = c
+            .submit(json!({"scene": scene(8, 8), "tile_size": 8}))
+            .await;
+        let w = c.register("gone").await;
+        c.lease(w).await.unwrap();
+        job
+    };
+    let mut cfg = config(dir.path());
+    cfg.restart_grace = Duration::from_millis(300);
+    let c = Coordinator::open(cfg).await;
+    let w = c.register("new").await;
+    assert!(c.lease(w).await.is_none(), "held during the grace period");
+    tokio::time::sleep(Duration::from_millis(450)).await;
+    let lease = c.lease(w).await.expect("re-leased after the grace period");
+    assert_eq!(
+        (lease.job_id, lease.tile_index, lease.epoch),
+        (job.id, 0, 2)
+    );
+}
+
+/// All tiles recorded but the image not written (killed during assembly): the restarted
+/// coordinator assembles it.
+#[tokio::test]
+async fn an_interrupted_assembly_is_finished_after_a_restart() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = {
+        let c = Coordinator::open(config(dir.path())).await;
+        let job = c
+            .submit(json!({"scene": scene(16, 8), "tile_size": 8}))
+            .await;
+        let w = c.register("w").await;
+        while let Some(lease) = c.lease(w).await {
+            c.upload(job.id, lease.tile_index, &upload_for(&lease, w))
+                .await;
+        }
+        assert_eq!(c.wait_finished(job.id).await.state, JobState::Done);
+        job
+    };
+    // Undo the end of assembly as a kill before it would have left it.
+    let image = dir
+        .path()
+        .join("jobs")
+        .join(job.id.to_string())
+        .join("image.exr");
+    std::fs::remove_file(&image).unwrap();
+    let db = rusqlite::Connection::open(dir.path().join("spindle.db")).unwrap();
+    db.execute("UPDATE jobs SET state = 'running', finished_ms = NULL", [])
+        .unwrap();
+    drop(db);
+
+    let c = Coordinator::open(config(dir.path())).await;
+    let info = c.wait_finished(job.id).await;
+    assert_eq!(info.state, JobState::Done, "{:?}", info.error);
+    assert!(image.is_file());
+}
