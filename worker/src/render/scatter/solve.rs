@@ -8,10 +8,12 @@
 //! `δ = −(J₂ᵀJ₂)⁻¹ J₂ᵀ f`.
 
 use glam::DVec3;
+use spindle_common::stats::RenderStats;
 
 use super::distance::distance_factor;
 use super::ends::PathEnds;
 use super::patch::{Residual, TrianglePatch};
+use super::small_list::SmallList;
 use crate::render::fresnel;
 
 /// Barycentric slack of the inside-triangle test, so a path exactly on a shared edge is kept.
@@ -338,6 +340,39 @@ pub fn solve_at(
     let path =
         zero.and_then(|z| RefractionPath::from_zero(patch, ends, t, z.x[1], z.x[2], &z.residual));
     (path, evaluations)
+}
+
+/// Every valid refraction point inside the triangle at `V(t)`, by brute force: Newton from a
+/// triangular grid of `n(n+1)/2` starts over the triangle (`n` per side), deduplicated to 1e-8 in
+/// barycentric units, at most `N` (extra ones are dropped). For the reference estimator and for
+/// tests: it finds every branch the grid resolves, at about `n²/2` solves per call. Newton work
+/// and failures go to `stats`.
+pub fn solve_all_at<const N: usize>(
+    patch: &TrianglePatch,
+    ends: &PathEnds,
+    t: f64,
+    n: usize,
+    tolerance: f64,
+    stats: &mut RenderStats,
+) -> SmallList<RefractionPath, N> {
+    let settings = NewtonSettings::new(tolerance, (t, t));
+    let mut found: SmallList<RefractionPath, N> = SmallList::default();
+    for i in 0..n {
+        for j in 0..(n - i) {
+            let start = ((i as f64 + 0.3) / n as f64, (j as f64 + 0.3) / n as f64);
+            let (path, spent) = solve_at(patch, ends, t, start, &settings);
+            stats.newton_iterations += spent as u64;
+            let Some(p) = path else { continue };
+            if patch.contains(p.a, p.b, 0.0)
+                && !found
+                    .iter()
+                    .any(|q| (q.a - p.a).abs() < 1e-8 && (q.b - p.b).abs() < 1e-8)
+            {
+                found.push(p);
+            }
+        }
+    }
+    found
 }
 
 /// The default starting point of a fixed-t solve: where the straight line V → L crosses the
