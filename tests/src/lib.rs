@@ -1,1 +1,439 @@
-//! Helpers for the end-to-end tests in `tests/tests/`.
+//! Helpers for the end-to-end tests in `tests/tests/`: start the real `spindle-server` and
+//! `spindle-worker` binaries on loopback, talk to them over HTTP, and render the same scene in
+//! this process as the single-process reference.
+//!
+//! Every process is killed when its handle is dropped (so a failing test leaves nothing
+//! running), every wait has a deadline, and ports are chosen at run time. The binaries are
+//! found beside the test executable's directory (`target/<profile>/`); `cargo test --workspace`
+//! builds them, because the crates that own them have integration tests of their own (a lone
+//! `cargo test -p spindle-tests` needs `cargo build --bins` first, and says so).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, anyhow, bail};
+use serde_json::Value;
+use spindle_common::image::Image;
+use spindle_common::protocol::{JobInfo, SubmitJob, asset_hash};
+use spindle_common::tile::split_centre_first;
+use spindle_worker::render::{Assets, Scene, render_tile};
+
+/// The path of one of the workspace's binaries (`spindle-server`, `spindle-worker`,
+/// `spindle`), next to the directory of the running test executable.
+pub fn binary(name: &str) -> PathBuf {
+    let exe = std::env::current_exe().expect("the test executable's path");
+    // target/<profile>/deps/<test>-<hash> → target/<profile>/<name>
+    let profile_dir = exe
+        .parent()
+        .and_then(Path::parent)
+        .expect("the test executable lives in target/<profile>/deps");
+    let path = profile_dir.join(format!("{name}{}", std::env::consts::EXE_SUFFIX));
+    assert!(
+        path.is_file(),
+        "{} is missing: run `cargo build --workspace --bins` (or `cargo test --workspace`, which \
+         builds it) before these tests",
+        path.display()
+    );
+    path
+}
+
+/// A port on 127.0.0.1 that was free a moment ago.
+pub fn free_port() -> u16 {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").expect("binding 127.0.0.1:0");
+    listener.local_addr().expect("a bound address").port()
+}
+
+/// A child process whose stdout and stderr go to a log file; killed (SIGKILL) on drop.
+pub struct Proc {
+    pub name: String,
+    child: Child,
+    log: PathBuf,
+}
+
+impl Proc {
+    /// Starts `command` with exactly the spindle tokens in `env` (none inherited), logging to
+    /// `dir/<name>.log` (appending, so a restarted process keeps one log).
+    pub fn spawn(mut command: Command, env: &[(&str, &str)], dir: &Path, name: &str) -> Result<Proc> {
+        let log = dir.join(format!("{name}.log"));
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(&log)
+            .with_context(|| format!("opening {}", log.display()))?;
+        command
+            .stdin(Stdio::null())
+            .stdout(file.try_clone()?)
+            .stderr(file)
+            .env("RUST_LOG", "info")
+            .env_remove("SPINDLE_TOKEN")
+            .env_remove("SPINDLE_WORKER_TOKEN")
+            .env_remove("SPINDLE_COORDINATOR")
+            .env_remove("SPINDLE_SERVER")
+            .envs(env.iter().copied());
+        let child = command
+            .spawn()
+            .with_context(|| format!("starting {name} ({command:?})"))?;
+        Ok(Proc {
+            name: name.to_string(),
+            child,
+            log,
+        })
+    }
+
+    pub fn pid(&self) -> u32 {
+        self.child.id()
+    }
+
+    /// The log so far.
+    pub fn log(&self) -> String {
+        std::fs::read_to_string(&self.log).unwrap_or_default()
+    }
+
+    /// SIGKILL, and reap.
+    pub fn kill(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+
+    /// SIGTERM (through `kill(1)`, to keep this crate free of `unsafe` and libc).
+    pub fn terminate(&self) -> Result<()> {
+        let status = Command::new("kill")
+            .args(["-TERM", &self.pid().to_string()])
+            .status()
+            .context("running kill -TERM")?;
+        if !status.success() {
+            bail!("kill -TERM {} failed: {status}", self.pid());
+        }
+        Ok(())
+    }
+
+    /// The exit status, if the process has ended.
+    pub fn try_status(&mut self) -> Option<ExitStatus> {
+        self.child.try_wait().ok().flatten()
+    }
+
+    /// Waits up to `timeout` for the process to end.
+    pub async fn wait_exit(&mut self, timeout: Duration) -> Result<ExitStatus> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            if let Some(status) = self.try_status() {
+                return Ok(status);
+            }
+            if Instant::now() > deadline {
+                bail!("{} did not exit within {timeout:?}; log:\n{}", self.name, self.log());
+            }
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+    }
+}
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        self.kill();
+    }
+}
+
+/// A coordinator and its workers on loopback, with their own tokens and data directory.
+pub struct Farm {
+    pub dir: tempfile::TempDir,
+    pub port: u16,
+    pub client_token: String,
+    pub worker_token: String,
+    pub lease_ttl_s: f64,
+    pub server: Option<Proc>,
+    pub workers: Vec<Proc>,
+    pub http: reqwest::Client,
+}
+
+impl Farm {
+    /// Starts a coordinator whose leases last `lease_ttl_s` without a heartbeat.
+    pub async fn start(lease_ttl_s: f64) -> Result<Farm> {
+        let http = reqwest::Client::builder()
+            .no_proxy()
+            .timeout(Duration::from_secs(30))
+            .build()?;
+        let mut farm = Farm {
+            dir: tempfile::tempdir()?,
+            port: free_port(),
+            client_token: format!("client-{}", std::process::id()),
+            worker_token: format!("worker-{}", std::process::id()),
+            lease_ttl_s,
+            server: None,
+            workers: Vec::new(),
+            http,
+        };
+        farm.start_server().await?;
+        Ok(farm)
+    }
+
+    /// `http://127.0.0.1:PORT`.
+    pub fn base(&self) -> String {
+        format!("http://127.0.0.1:{}", self.port)
+    }
+
+    pub fn url(&self, path: &str) -> String {
+        format!("{}{}", self.base(), path)
+    }
+
+    /// Starts (or restarts) the coordinator on the farm's port and data directory, and waits
+    /// until it is ready.
+    pub async fn start_server(&mut self) -> Result<()> {
+        let mut cmd = Command::new(binary("spindle-server"));
+        cmd.arg("--listen")
+            .arg(format!("127.0.0.1:{}", self.port))
+            .arg("--data")
+            .arg(self.dir.path().join("data"))
+            .arg("--lease-ttl-s")
+            .arg(self.lease_ttl_s.to_string());
+        // Tokens through the environment, as in a deployment.
+        let env = [
+            ("SPINDLE_TOKEN", self.client_token.as_str()),
+            ("SPINDLE_WORKER_TOKEN", self.worker_token.as_str()),
+        ];
+        let mut proc = Proc::spawn(cmd, &env, self.dir.path(), "server")?;
+        let deadline = Instant::now() + Duration::from_secs(30);
+        loop {
+            if let Some(status) = proc.try_status() {
+                bail!("spindle-server exited at start ({status}); log:\n{}", proc.log());
+            }
+            let ready = self.http.get(self.url("/readyz")).send().await;
+            if matches!(&ready, Ok(r) if r.status().is_success()) {
+                break;
+            }
+            if Instant::now() > deadline {
+                bail!("spindle-server not ready after 30 s; log:\n{}", proc.log());
+            }
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        self.server = Some(proc);
+        Ok(())
+    }
+
+    /// SIGKILLs the coordinator.
+    pub fn kill_server(&mut self) {
+        if let Some(mut s) = self.server.take() {
+            s.kill();
+        }
+    }
+
+    /// Starts a worker with `threads` render threads; returns its index in `workers`.
+    pub fn add_worker(&mut self, name: &str, threads: usize) -> Result<usize> {
+        let mut cmd = Command::new(binary("spindle-worker"));
+        cmd.arg("--coordinator")
+            .arg(self.base())
+            .arg("--threads")
+            .arg(threads.to_string())
+            .arg("--name")
+            .arg(name);
+        let env = [("SPINDLE_WORKER_TOKEN", self.worker_token.as_str())];
+        let proc = Proc::spawn(cmd, &env, self.dir.path(), name)?;
+        self.workers.push(proc);
+        Ok(self.workers.len() - 1)
+    }
+
+    /// Waits until worker `i` has registered with the coordinator.
+    pub async fn wait_registered(&self, i: usize) -> Result<()> {
+        let deadline = Instant::now() + Duration::from_secs(30);
+        while !self.workers[i].log().contains("registered with the coordinator") {
+            if Instant::now() > deadline {
+                bail!("worker {} did not register within 30 s\n{}", self.workers[i].name, self.logs());
+            }
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+        Ok(())
+    }
+
+    /// A client request with the client token.
+    pub fn client(&self, method: reqwest::Method, path: &str) -> reqwest::RequestBuilder {
+        self.http
+            .request(method, self.url(path))
+            .bearer_auth(&self.client_token)
+    }
+
+    /// A worker request with the worker token.
+    pub fn worker(&self, method: reqwest::Method, path: &str) -> reqwest::RequestBuilder {
+        self.http
+            .request(method, self.url(path))
+            .bearer_auth(&self.worker_token)
+    }
+
+    /// Uploads the scene's assets and submits it; returns the new job.
+    pub async fn submit(&self, scene: &Value, assets: &Assets, tile_size: u32) -> Result<JobInfo> {
+        let mut table = BTreeMap::new();
+        for (path, bytes) in assets {
+            let hash = asset_hash(bytes);
+            let resp = self
+                .client(reqwest::Method::PUT, &format!("/v1/assets/{hash}"))
+                .body(bytes.clone())
+                .send()
+                .await?;
+            if !resp.status().is_success() {
+                bail!("asset upload: {} {}", resp.status(), resp.text().await?);
+            }
+            table.insert(path.clone(), hash);
+        }
+        let job = SubmitJob {
+            scene: serde_json::from_value(scene.clone())?,
+            assets: table,
+            tile_size,
+            priority: 0,
+        };
+        let resp = self
+            .client(reqwest::Method::POST, "/v1/jobs")
+            .json(&job)
+            .send()
+            .await?;
+        let status = resp.status();
+        let text = resp.text().await?;
+        if !status.is_success() {
+            bail!("submit: {status} {text}");
+        }
+        Ok(serde_json::from_str(&text)?)
+    }
+
+    /// `GET /v1/jobs/{id}`.
+    pub async fn job(&self, id: u64) -> Result<JobInfo> {
+        let resp = self
+            .client(reqwest::Method::GET, &format!("/v1/jobs/{id}"))
+            .send()
+            .await?;
+        let status = resp.status();
+        let text = resp.text().await?;
+        if !status.is_success() {
+            bail!("job {id}: {status} {text}");
+        }
+        Ok(serde_json::from_str(&text)?)
+    }
+
+    /// Polls until `ready(job)` or the deadline; tolerates the coordinator being down.
+    pub async fn wait_job(
+        &self,
+        id: u64,
+        timeout: Duration,
+        ready: impl Fn(&JobInfo) -> bool,
+    ) -> Result<JobInfo> {
+        let deadline = Instant::now() + timeout;
+        let mut last = None;
+        loop {
+            match self.job(id).await {
+                Ok(info) if ready(&info) => return Ok(info),
+                Ok(info) => last = Some(info),
+                Err(_) if Instant::now() < deadline => {}
+                Err(e) => return Err(e),
+            }
+            if Instant::now() > deadline {
+                return Err(anyhow!(
+                    "job {id} not ready within {timeout:?}; last seen {last:?}\n{}",
+                    self.logs()
+                ));
+            }
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+    }
+
+    /// Waits until the job is finished, and requires it done.
+    pub async fn wait_done(&self, id: u64, timeout: Duration) -> Result<JobInfo> {
+        let info = self
+            .wait_job(id, timeout, |j| j.state.is_finished())
+            .await?;
+        if info.state != spindle_common::protocol::JobState::Done {
+            bail!("job {id} ended {:?}: {:?}\n{}", info.state, info.error, self.logs());
+        }
+        Ok(info)
+    }
+
+    /// The job's final EXR, decoded.
+    pub async fn image(&self, id: u64) -> Result<Image> {
+        let resp = self
+            .client(reqwest::Method::GET, &format!("/v1/jobs/{id}/image.exr"))
+            .send()
+            .await?;
+        if !resp.status().is_success() {
+            bail!("image of job {id}: {}", resp.status());
+        }
+        let bytes = resp.bytes().await?;
+        Image::from_exr_bytes(&bytes).map_err(|e| anyhow!("decoding the EXR of job {id}: {e}"))
+    }
+
+    /// Every process's log, for failure messages.
+    pub fn logs(&self) -> String {
+        let mut s = String::new();
+        for p in self.server.iter().chain(&self.workers) {
+            s += &format!("----- {} -----\n{}\n", p.name, p.log());
+        }
+        s
+    }
+}
+
+/// Tiles this worker's log reports as delivered and accepted by the coordinator.
+pub fn accepted_tiles(log: &str) -> usize {
+    log.lines()
+        .filter(|l| l.contains("tile delivered") && l.contains("Accepted"))
+        .count()
+}
+
+/// A small scene with one OBJ asset (a box) and a procedural sphere, so assets travel.
+pub fn test_scene(width: u32, height: u32, spp: u32) -> (Value, Assets) {
+    let scene = serde_json::json!({
+        "camera": { "position": [0.0, 1.2, 5.0], "look_at": [0.0, 0.8, 0.0], "fov_y": 35.0 },
+        "film": { "width": width, "height": height, "spp": spp, "seed": 7 },
+        "lights": [
+            { "type": "point", "position": [0.6, 2.6, -3.0], "intensity": [30.0, 30.0, 30.0] },
+            { "type": "sphere", "center": [-2.5, 2.0, -3.5], "radius": 0.6, "radiance": [8.0, 7.5, 7.0] }
+        ],
+        "objects": [
+            {
+                "shape": { "type": "obj", "path": "meshes/floor.obj" },
+                "material": { "type": "diffuse", "reflectance": [0.7, 0.7, 0.7] }
+            },
+            {
+                "shape": { "type": "icosphere", "radius": 1.0, "subdivisions": 2 },
+                "transform": { "translate": [0.0, 1.0, 0.0] },
+                "material": {
+                    "type": "dielectric",
+                    "eta": 1.5,
+                    "medium": { "sigma_t": [0.3, 0.35, 0.4], "albedo": [0.95, 0.95, 0.95] }
+                }
+            }
+        ],
+        "background": [0.05, 0.05, 0.06]
+    });
+    let floor = "v -4 0 -4\nv 4 0 -4\nv 4 0 4\nv -4 0 4\nf 1 3 2\nf 1 4 3\n";
+    let assets = Assets::from([("meshes/floor.obj".to_string(), floor.as_bytes().to_vec())]);
+    (scene, assets)
+}
+
+/// Renders the whole frame in this process: the single-process reference.
+pub fn reference_image(scene: &Value, assets: &Assets) -> Result<Image> {
+    let desc = serde_json::from_value(scene.clone())?;
+    let scene = Scene::build(&desc, assets).map_err(|e| anyhow!("reference scene: {e}"))?;
+    let film = scene.film();
+    let mut image = Image::new(film.width, film.height);
+    for rect in split_centre_first(film.width, film.height, 16) {
+        image
+            .insert_tile(&render_tile(&scene, rect))
+            .map_err(|e| anyhow!("{e}"))?;
+    }
+    Ok(image)
+}
+
+/// Panics unless every layer of `a` and `b` is the same bits, naming the first difference.
+pub fn assert_bit_identical(a: &Image, b: &Image) {
+    assert_eq!((a.width, a.height), (b.width, b.height), "image sizes differ");
+    let names = ["total", "surface", "single_scatter"];
+    for ((name, la), lb) in names.iter().zip(a.layers()).zip(b.layers()) {
+        assert_eq!(la.len(), lb.len(), "layer {name} lengths differ");
+        if let Some(i) = (0..la.len()).find(|&i| la[i].to_bits() != lb[i].to_bits()) {
+            let (px, ch) = (i / 3, i % 3);
+            panic!(
+                "layer {name} differs at pixel ({}, {}) channel {ch}: {} vs {}",
+                px as u32 % a.width,
+                px as u32 / a.width,
+                la[i],
+                lb[i]
+            );
+        }
+    }
+}

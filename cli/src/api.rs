@@ -1,0 +1,210 @@
+//! The `spindle` command's side of the coordinator's HTTP API: the client routes (assets, jobs,
+//! images), typed with `spindle_common::protocol`.
+//!
+//! Errors are for people: they say which coordinator, what was asked and what it answered
+//! (`job 7: the coordinator at http://… answered 404 Not Found: no job 7`). Requests that may
+//! be repeated safely (reads, asset uploads, and job submission thanks to its idempotency key)
+//! are retried a few times when the coordinator is briefly unreachable.
+
+use std::time::Duration;
+
+use anyhow::{Context, Result, anyhow};
+use reqwest::StatusCode;
+use serde::de::DeserializeOwned;
+use spindle_common::protocol::{
+    ApiError, AssetStored, IDEMPOTENCY_KEY_HEADER, JobInfo, JobList, MissingAssetsRequest,
+    MissingAssetsResponse, SubmitJob,
+};
+
+/// Tries of a request whose failure was transient (connection refused, 5xx).
+const TRIES: u32 = 5;
+/// Requests other than asset and image transfers.
+const REQUEST_TIMEOUT: Duration = Duration::from_secs(60);
+/// Asset uploads and image downloads can be large.
+const TRANSFER_TIMEOUT: Duration = Duration::from_secs(900);
+
+/// The coordinator answered with an error status.
+#[derive(Debug, thiserror::Error)]
+#[error("the coordinator at {base} answered {status}: {message}")]
+pub struct StatusError {
+    pub base: String,
+    pub status: StatusCode,
+    pub message: String,
+}
+
+/// A connection to a coordinator, with the client token.
+#[derive(Debug, Clone)]
+pub struct Api {
+    http: reqwest::Client,
+    base: String,
+    token: Option<String>,
+}
+
+impl Api {
+    /// `base` is `http://host:port`; `token` is `SPINDLE_TOKEN`.
+    pub fn new(base: &str, token: Option<String>) -> Result<Api> {
+        let url = reqwest::Url::parse(base)
+            .map_err(|e| anyhow!("--server {base}: not a URL ({e}); expected http://HOST:PORT"))?;
+        if url.scheme() != "http" || url.host_str().is_none_or(str::is_empty) {
+            return Err(anyhow!("--server {base}: expected http://HOST:PORT"));
+        }
+        let http = reqwest::Client::builder()
+            .no_proxy()
+            .connect_timeout(Duration::from_secs(5))
+            .timeout(REQUEST_TIMEOUT)
+            .build()
+            .context("setting up the HTTP client")?;
+        Ok(Api {
+            http,
+            base: url.as_str().trim_end_matches('/').to_string(),
+            token: token.filter(|t| !t.trim().is_empty()).map(|t| t.trim().to_string()),
+        })
+    }
+
+    /// The coordinator's base URL.
+    pub fn base(&self) -> &str {
+        &self.base
+    }
+
+    /// `POST /v1/assets/missing`: which of `hashes` must be uploaded.
+    pub async fn missing_assets(&self, hashes: Vec<String>) -> Result<Vec<String>> {
+        let body = MissingAssetsRequest { hashes };
+        let r: MissingAssetsResponse = self
+            .json(|| self.http.post(self.url("/v1/assets/missing")).json(&body))
+            .await?;
+        Ok(r.missing)
+    }
+
+    /// `PUT /v1/assets/{hash}`.
+    pub async fn put_asset(&self, hash: &str, bytes: &[u8]) -> Result<AssetStored> {
+        self.json(|| {
+            self.http
+                .put(self.url(&format!("/v1/assets/{hash}")))
+                .timeout(TRANSFER_TIMEOUT)
+                .header(reqwest::header::CONTENT_TYPE, "application/octet-stream")
+                .body(bytes.to_vec())
+        })
+        .await
+    }
+
+    /// `POST /v1/jobs` with an idempotency key, so a retry cannot create a second job.
+    pub async fn submit(&self, job: &SubmitJob, idempotency_key: &str) -> Result<JobInfo> {
+        self.json(|| {
+            self.http
+                .post(self.url("/v1/jobs"))
+                .header(IDEMPOTENCY_KEY_HEADER, idempotency_key)
+                .json(job)
+        })
+        .await
+    }
+
+    /// `GET /v1/jobs`.
+    pub async fn jobs(&self) -> Result<JobList> {
+        self.json(|| self.http.get(self.url("/v1/jobs"))).await
+    }
+
+    /// `GET /v1/jobs/{id}`.
+    pub async fn job(&self, id: u64) -> Result<JobInfo> {
+        self.json(|| self.http.get(self.url(&format!("/v1/jobs/{id}"))))
+            .await
+    }
+
+    /// `POST /v1/jobs/{id}/cancel`.
+    pub async fn cancel(&self, id: u64) -> Result<JobInfo> {
+        self.json(|| self.http.post(self.url(&format!("/v1/jobs/{id}/cancel"))))
+            .await
+    }
+
+    /// `GET /v1/jobs/{id}/image.exr` (the final image) or `image.png` (the preview).
+    pub async fn image(&self, id: u64, file: ImageFile) -> Result<Vec<u8>> {
+        let name = match file {
+            ImageFile::Exr => "image.exr",
+            ImageFile::Png => "image.png",
+        };
+        let resp = self
+            .send(|| {
+                self.http
+                    .get(self.url(&format!("/v1/jobs/{id}/{name}")))
+                    .timeout(TRANSFER_TIMEOUT)
+            })
+            .await?;
+        let bytes = resp
+            .bytes()
+            .await
+            .with_context(|| format!("downloading {name} of job {id} from {}", self.base))?;
+        Ok(bytes.to_vec())
+    }
+
+    fn url(&self, path: &str) -> String {
+        format!("{}{}", self.base, path)
+    }
+
+    async fn json<T: DeserializeOwned>(
+        &self,
+        make: impl Fn() -> reqwest::RequestBuilder,
+    ) -> Result<T> {
+        let resp = self.send(make).await?;
+        let bytes = resp
+            .bytes()
+            .await
+            .with_context(|| format!("reading the answer of {}", self.base))?;
+        serde_json::from_slice(&bytes)
+            .with_context(|| format!("the coordinator at {} sent an unexpected answer", self.base))
+    }
+
+    /// Sends with the token, retrying transient failures; a non-2xx answer is a
+    /// [`StatusError`] carrying the coordinator's message.
+    async fn send(&self, make: impl Fn() -> reqwest::RequestBuilder) -> Result<reqwest::Response> {
+        let mut delay = Duration::from_millis(200);
+        let mut tries = 0;
+        loop {
+            tries += 1;
+            let req = match &self.token {
+                Some(token) => make().bearer_auth(token),
+                None => make(),
+            };
+            let transient = match req.send().await {
+                Ok(resp) if resp.status().is_success() => return Ok(resp),
+                Ok(resp) => {
+                    let status = resp.status();
+                    let text = resp.text().await.unwrap_or_default();
+                    let message = serde_json::from_str::<ApiError>(&text)
+                        .map(|e| e.error)
+                        .unwrap_or_else(|_| text.chars().take(300).collect());
+                    let err = StatusError {
+                        base: self.base.clone(),
+                        status,
+                        message,
+                    };
+                    if !status.is_server_error() || tries >= TRIES {
+                        return Err(err.into());
+                    }
+                    anyhow::Error::from(err)
+                }
+                Err(e) => {
+                    let err = anyhow::Error::from(e)
+                        .context(format!("cannot reach the coordinator at {}", self.base));
+                    if tries >= TRIES {
+                        return Err(err);
+                    }
+                    err
+                }
+            };
+            tracing::warn!("{transient:#}; retrying in {delay:?}");
+            tokio::time::sleep(delay).await;
+            delay *= 2;
+        }
+    }
+}
+
+/// Which image of a job to download.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ImageFile {
+    Exr,
+    Png,
+}
+
+/// The HTTP status of a failed request, if the coordinator answered at all.
+pub fn status_of(e: &anyhow::Error) -> Option<StatusCode> {
+    e.downcast_ref::<StatusError>().map(|s| s.status)
+}

@@ -1,0 +1,99 @@
+//! `spindle render --workers N` (N ≥ 1): an embedded local farm. The coordinator runs in this
+//! process on 127.0.0.1 with a temporary data directory and random tokens; N workers run in
+//! this process too, as tasks of `spindle_worker::farm::run`, each with its own rayon pool of
+//! cores/N threads. The scene goes through exactly the path a remote farm uses (assets by
+//! hash, job submission, leases, tile uploads, assembly), so what works here works on many
+//! machines.
+//!
+//! In-process workers rather than child processes: no binary to locate, nothing left running
+//! if the command is interrupted, and one Ctrl-C stops everything.
+
+use std::time::Duration;
+
+use anyhow::{Context, Result, anyhow};
+use spindle_common::protocol::JobInfo;
+use spindle_worker::farm;
+use tokio_util::sync::CancellationToken;
+
+use crate::api::{Api, ImageFile};
+use crate::progress::{Wait, require_done, wait_for};
+use crate::secret::random_hex;
+
+/// What the farm produced.
+pub struct FarmResult {
+    pub job: JobInfo,
+    /// The coordinator's final EXR.
+    pub exr: Vec<u8>,
+    /// Tiles each worker delivered, in worker order.
+    pub tiles_per_worker: Vec<u64>,
+}
+
+/// The default number of workers: one per two cores, at least two.
+pub fn default_workers() -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    (cores / 2).max(2)
+}
+
+/// Starts the coordinator and `workers` workers, submits the job through `submit`, waits with
+/// a progress bar, downloads the final EXR, and stops everything.
+pub async fn render<F, Fut>(workers: usize, submit: F) -> Result<FarmResult>
+where
+    F: FnOnce(Api) -> Fut,
+    Fut: Future<Output = Result<JobInfo>>,
+{
+    let data = tempfile::Builder::new()
+        .prefix("spindle-farm-")
+        .tempdir()
+        .context("creating the local farm's data directory")?;
+    let client_token = random_hex();
+    let worker_token = random_hex();
+    let mut config = spindle_server::Config::new(data.path());
+    config.client_token = Some(client_token.clone());
+    config.worker_token = Some(worker_token.clone());
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
+        .await
+        .context("binding the local coordinator to 127.0.0.1")?;
+    let base = format!("http://{}", listener.local_addr()?);
+    let shutdown = CancellationToken::new();
+    // Stops everything when this function returns, whichever way.
+    let _stop_all = shutdown.clone().drop_guard();
+    let server = tokio::spawn(spindle_server::run(config, listener, shutdown.clone()));
+
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let threads = (cores / workers).max(1);
+    let mut tasks = Vec::with_capacity(workers);
+    for i in 0..workers {
+        let config = farm::Config::new(
+            &base,
+            Some(worker_token.clone()),
+            Some(format!("local-{i}")),
+            Some(threads),
+        )?;
+        tasks.push(tokio::spawn(farm::run(config, shutdown.clone())));
+    }
+
+    let api = Api::new(&base, Some(client_token))?;
+    let job = submit(api.clone()).await?;
+    let info = wait_for(&api, job.id, Wait::default()).await?;
+    require_done(&info)?;
+    let exr = api.image(job.id, ImageFile::Exr).await?;
+
+    shutdown.cancel();
+    let mut tiles_per_worker = Vec::with_capacity(workers);
+    for task in tasks {
+        let summary = tokio::time::timeout(Duration::from_secs(60), task)
+            .await
+            .map_err(|_| anyhow!("a local worker did not stop"))?
+            .context("a local worker panicked")??;
+        tiles_per_worker.push(summary.accepted);
+    }
+    tokio::time::timeout(Duration::from_secs(60), server)
+        .await
+        .map_err(|_| anyhow!("the local coordinator did not stop"))?
+        .context("the local coordinator panicked")??;
+    Ok(FarmResult {
+        job: info,
+        exr,
+        tiles_per_worker,
+    })
+}

@@ -1,0 +1,296 @@
+//! `spindle render SCENE.json -o OUT.exr [--workers N]`: render a scene on this machine and
+//! write the OpenEXR image (layers `total`, `surface`, `single_scatter`) and a PNG preview
+//! beside it (`OUT.png`).
+//!
+//! By default through an embedded local farm ([`crate::local_farm`]: a coordinator and N
+//! workers in this process, the same path a job takes on many machines); `--workers 0` renders
+//! in this process without the farm ([`crate::local`]), the single-process reference, which
+//! also offers `--crop` and `--pixel`. Both write the same pixels and the same header
+//! attributes.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use spindle_common::image::Image;
+use spindle_common::protocol::DEFAULT_TILE_SIZE;
+use spindle_common::scene::Scene as SceneDesc;
+use spindle_common::stats::RenderStats;
+use spindle_common::tile::TileRect;
+use spindle_worker::render::{Scene, render_pixel};
+
+use crate::load::load_scene;
+
+/// `spindle render` options.
+#[derive(Debug, clap::Args)]
+pub struct RenderArgs {
+    /// The scene file (JSON); OBJ paths in it are relative to it.
+    pub scene: PathBuf,
+    /// The OpenEXR file to write; the preview goes to the same path with `.png`.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Local farm workers (default: one per two cores, at least two); 0 renders in this
+    /// process without the farm.
+    #[arg(long)]
+    pub workers: Option<usize>,
+    /// Camera samples per pixel (overrides `film.spp`).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Random seed (overrides `film.seed`).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Render only this rectangle `x,y,w,h` of the image (the rest stays black; needs
+    /// `--workers 0`).
+    #[arg(long, value_parser = parse_crop)]
+    pub crop: Option<TileRect>,
+    /// Render only pixel `x,y` and print its value, for replaying one pixel (needs
+    /// `--workers 0`).
+    #[arg(long, value_parser = parse_pixel)]
+    pub pixel: Option<(u32, u32)>,
+    /// Tile edge in pixels on the local farm.
+    #[arg(long, default_value_t = DEFAULT_TILE_SIZE)]
+    pub tile_size: u32,
+    /// Print the render statistics.
+    #[arg(long)]
+    pub stats: bool,
+}
+
+impl RenderArgs {
+    /// Applies `--spp` and `--seed` to a scene.
+    fn edit(&self, scene: &mut SceneDesc) {
+        if let Some(spp) = self.spp {
+            scene.film.spp = spp;
+        }
+        if let Some(seed) = self.seed {
+            scene.film.seed = seed;
+        }
+    }
+}
+
+fn parse_numbers<const N: usize>(text: &str) -> Result<[u32; N], String> {
+    let parts: Vec<&str> = text.split(',').collect();
+    if parts.len() != N {
+        return Err(format!("expected {N} comma-separated numbers, got {text:?}"));
+    }
+    let mut out = [0u32; N];
+    for (o, p) in out.iter_mut().zip(parts) {
+        *o = p.trim().parse().map_err(|e| format!("{p:?}: {e}"))?;
+    }
+    Ok(out)
+}
+
+fn parse_crop(text: &str) -> Result<TileRect, String> {
+    let [x, y, width, height] = parse_numbers::<4>(text)?;
+    if width == 0 || height == 0 {
+        return Err("crop width and height must be > 0".into());
+    }
+    Ok(TileRect {
+        x,
+        y,
+        width,
+        height,
+    })
+}
+
+fn parse_pixel(text: &str) -> Result<(u32, u32), String> {
+    let [x, y] = parse_numbers::<2>(text)?;
+    Ok((x, y))
+}
+
+pub async fn run(args: &RenderArgs) -> Result<()> {
+    let workers = args.workers.unwrap_or_else(crate::local_farm::default_workers);
+    if workers == 0 {
+        return tokio::task::block_in_place(|| in_process(args));
+    }
+    if args.crop.is_some() || args.pixel.is_some() {
+        bail!("--crop and --pixel render in this process: add --workers 0");
+    }
+    on_local_farm(args, workers).await
+}
+
+/// `--workers N`: through the embedded farm.
+async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
+    let started = Instant::now();
+    // Read and check the scene here first, so a mistake is reported before any farm starts.
+    let mut files = load_scene(&args.scene)?;
+    args.edit(&mut files.desc);
+    let desc = files.desc.clone();
+    drop(files);
+    let result = crate::local_farm::render(workers, |api| async move {
+        let edit = |s: &mut SceneDesc| args.edit(s);
+        crate::submit::submit_scene_file(&api, &args.scene, Some(&edit), args.tile_size, 0).await
+    })
+    .await?;
+    let mut image = Image::from_exr_bytes(&result.exr)
+        .context("the local coordinator sent an unreadable EXR")?;
+    let stats = result.job.stats;
+    let per_worker: Vec<String> = result.tiles_per_worker.iter().map(u64::to_string).collect();
+    let a = &mut image.attributes;
+    describe(a, args, &desc, &stats);
+    a.insert("spindle.workers".into(), workers.to_string());
+    let preview = write_outputs(&image, &args.output)?;
+    println!(
+        "rendered {} ({}x{}, {} spp) on a local farm of {workers} workers in {:.2} s \
+         ({} tiles of {} px: {} per worker)",
+        args.output.display(),
+        desc.film.width,
+        desc.film.height,
+        desc.film.spp,
+        started.elapsed().as_secs_f64(),
+        result.job.tiles_total,
+        args.tile_size,
+        per_worker.join("+"),
+    );
+    println!("preview {}", preview.display());
+    print_stats(args, &stats);
+    Ok(())
+}
+
+/// `--workers 0`: in this process, with rayon over all cores.
+fn in_process(args: &RenderArgs) -> Result<()> {
+    let started = Instant::now();
+    let mut files = load_scene(&args.scene)?;
+    args.edit(&mut files.desc);
+    let scene = Scene::build(&files.desc, &files.assets)
+        .with_context(|| format!("invalid scene {}", args.scene.display()))?;
+    let summary = scene.summary();
+    let built = started.elapsed();
+    for warning in scene.warnings() {
+        eprintln!("warning: {warning}");
+    }
+
+    let full = TileRect {
+        x: 0,
+        y: 0,
+        width: summary.width,
+        height: summary.height,
+    };
+    let region = match (args.pixel, args.crop) {
+        (Some((x, y)), _) => TileRect {
+            x,
+            y,
+            width: 1,
+            height: 1,
+        },
+        (None, Some(crop)) => crop,
+        (None, None) => full,
+    };
+    if region.x as u64 + region.width as u64 > full.width as u64
+        || region.y as u64 + region.height as u64 > full.height as u64
+    {
+        bail!(
+            "the region {},{} {}x{} is outside the {}x{} image",
+            region.x,
+            region.y,
+            region.width,
+            region.height,
+            full.width,
+            full.height
+        );
+    }
+
+    if let Some((x, y)) = args.pixel {
+        let value = render_pixel(&scene, x, y);
+        let r = value.radiance;
+        println!("pixel {x},{y}:");
+        println!("  total          {:?}", (r.surface + r.single_scatter).to_array());
+        println!("  surface        {:?}", r.surface.to_array());
+        println!("  single_scatter {:?}", r.single_scatter.to_array());
+    }
+
+    let rows: u64 = spindle_common::tile::split_centre_first(region.width, region.height, 32)
+        .iter()
+        .map(|t| t.height as u64)
+        .sum();
+    let progress = ProgressBar::new(rows);
+    if std::io::stderr().is_terminal() {
+        progress.set_style(
+            ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {percent}% eta {eta}")
+                .expect("a valid template")
+                .progress_chars("=> "),
+        );
+    } else {
+        progress.set_draw_target(ProgressDrawTarget::hidden());
+    }
+    let render_started = Instant::now();
+    let (mut image, stats) = crate::local::render_in_process(&scene, region, &progress)?;
+    progress.finish_and_clear();
+    let rendered = render_started.elapsed();
+
+    let a = &mut image.attributes;
+    describe(a, args, &files.desc, &stats);
+    a.insert("spindle.triangles".into(), summary.triangles.to_string());
+    a.insert("spindle.objects".into(), summary.objects.to_string());
+    a.insert("spindle.lights".into(), summary.lights.to_string());
+    a.insert(
+        "spindle.region".into(),
+        format!("{},{},{},{}", region.x, region.y, region.width, region.height),
+    );
+    if !summary.warnings.is_empty() {
+        a.insert("spindle.warnings".into(), summary.warnings.join("; "));
+    }
+    let preview = write_outputs(&image, &args.output)?;
+
+    println!(
+        "rendered {} ({}x{}{}, {} spp, {} triangles in {} objects, {} lights, {} warnings) in {:.2} s \
+         (scene build {:.2} s)",
+        args.output.display(),
+        full.width,
+        full.height,
+        if region == full {
+            String::new()
+        } else {
+            format!(", region {},{} {}x{}", region.x, region.y, region.width, region.height)
+        },
+        summary.spp,
+        summary.triangles,
+        summary.objects,
+        summary.lights,
+        summary.warnings.len(),
+        rendered.as_secs_f64(),
+        built.as_secs_f64(),
+    );
+    println!("preview {}", preview.display());
+    print_stats(args, &stats);
+    Ok(())
+}
+
+/// The header attributes both paths write.
+fn describe(
+    a: &mut std::collections::BTreeMap<String, String>,
+    args: &RenderArgs,
+    desc: &SceneDesc,
+    stats: &RenderStats,
+) {
+    a.insert("spindle.scene".into(), args.scene.display().to_string());
+    a.insert("spindle.spp".into(), desc.film.spp.to_string());
+    a.insert("spindle.seed".into(), desc.film.seed.to_string());
+    if let Ok(integrator) = serde_json::to_string(&desc.integrator) {
+        a.insert("spindle.integrator".into(), integrator);
+    }
+    for (name, value) in stats.entries() {
+        a.insert(format!("spindle.stats.{name}"), value.to_string());
+    }
+}
+
+/// Writes the EXR and the PNG preview beside it; returns the preview's path.
+fn write_outputs(image: &Image, output: &Path) -> Result<PathBuf> {
+    image
+        .write_exr(output)
+        .with_context(|| format!("cannot write {}", output.display()))?;
+    let preview = output.with_extension("png");
+    image
+        .write_png_preview(&preview)
+        .with_context(|| format!("cannot write {}", preview.display()))?;
+    Ok(preview)
+}
+
+fn print_stats(args: &RenderArgs, stats: &RenderStats) {
+    if args.stats {
+        for (name, value) in stats.entries() {
+            println!("  {name:<24} {value}");
+        }
+    }
+}

@@ -1,0 +1,95 @@
+//! `spindle submit SCENE.json [--wait]`: send a scene and its meshes to a coordinator.
+//!
+//! Meshes are content-addressed: each OBJ file is hashed (blake3), the coordinator is asked
+//! which hashes it lacks, and only those are uploaded. The job itself is posted with an
+//! idempotency key, so the automatic retry of a submission whose answer was lost cannot create
+//! a second job.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use spindle_common::protocol::{DEFAULT_TILE_SIZE, JobInfo, SubmitJob, asset_hash};
+use spindle_common::scene::Scene;
+
+use crate::api::Api;
+use crate::load::load_scene;
+use crate::progress::{Wait, wait_for};
+use crate::secret::random_hex;
+
+/// `spindle submit` options.
+#[derive(Debug, clap::Args)]
+pub struct SubmitArgs {
+    /// The scene file (JSON); OBJ paths in it are relative to it.
+    pub scene: std::path::PathBuf,
+    /// Wait for the job to finish, showing its progress.
+    #[arg(long)]
+    pub wait: bool,
+    /// Tile edge in pixels.
+    #[arg(long, default_value_t = DEFAULT_TILE_SIZE)]
+    pub tile_size: u32,
+    /// Higher runs first; equal priorities run in submission order.
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
+    pub priority: i32,
+}
+
+/// Runs `spindle submit`: prints the job id on stdout; with `--wait`, fails unless the job ends
+/// `done`.
+pub async fn run(api: &Api, args: &SubmitArgs) -> Result<()> {
+    let job = submit_scene_file(api, &args.scene, None, args.tile_size, args.priority).await?;
+    println!("{}", job.id);
+    if args.wait {
+        let end = wait_for(api, job.id, Wait::default()).await?;
+        crate::progress::require_done(&end)?;
+    }
+    Ok(())
+}
+
+/// Reads the scene file and its meshes, uploads the meshes the coordinator lacks, and submits
+/// the job. `edit` may change the scene before it is sent (the local farm's `--spp`/`--seed`).
+pub async fn submit_scene_file(
+    api: &Api,
+    scene_path: &Path,
+    edit: Option<&dyn Fn(&mut Scene)>,
+    tile_size: u32,
+    priority: i32,
+) -> Result<JobInfo> {
+    let mut files = load_scene(scene_path)?;
+    if let Some(edit) = edit {
+        edit(&mut files.desc);
+    }
+    // Hash every mesh and upload the ones the coordinator has not seen.
+    let mut table = BTreeMap::new();
+    let mut by_hash: BTreeMap<String, &[u8]> = BTreeMap::new();
+    for (path, bytes) in &files.assets {
+        let hash = asset_hash(bytes);
+        table.insert(path.clone(), hash.clone());
+        by_hash.insert(hash, bytes);
+    }
+    if !by_hash.is_empty() {
+        let missing = api
+            .missing_assets(by_hash.keys().cloned().collect())
+            .await
+            .context("asking the coordinator which meshes it lacks")?;
+        for hash in missing {
+            let Some(bytes) = by_hash.get(hash.as_str()) else {
+                anyhow::bail!("the coordinator asked for asset {hash}, which this scene does not have");
+            };
+            let path = table.iter().find(|(_, h)| **h == hash).map_or("?", |(p, _)| p.as_str());
+            api.put_asset(&hash, bytes)
+                .await
+                .with_context(|| format!("uploading {path} ({} bytes)", bytes.len()))?;
+            tracing::info!(%path, %hash, bytes = bytes.len(), "uploaded mesh");
+        }
+    }
+    let job = SubmitJob {
+        scene: files.desc,
+        assets: table,
+        tile_size,
+        priority,
+    };
+    let key = random_hex();
+    api.submit(&job, &key)
+        .await
+        .with_context(|| format!("submitting {}", scene_path.display()))
+}
