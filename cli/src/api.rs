@@ -57,13 +57,10 @@ impl Api {
         Ok(Api {
             http,
             base: url.as_str().trim_end_matches('/').to_string(),
-            token: token.filter(|t| !t.trim().is_empty()).map(|t| t.trim().to_string()),
+            token: token
+                .filter(|t| !t.trim().is_empty())
+                .map(|t| t.trim().to_string()),
         })
-    }
-
-    /// The coordinator's base URL.
-    pub fn base(&self) -> &str {
-        &self.base
     }
 
     /// `POST /v1/assets/missing`: which of `hashes` must be uploaded.

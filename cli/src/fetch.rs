@@ -31,7 +31,14 @@ pub async fn run(api: &Api, args: &FetchArgs) -> Result<()> {
             let state = api
                 .job(args.job)
                 .await
-                .map(|j| format!("{} ({}/{} tiles)", j.state.as_str(), j.tiles_done, j.tiles_total))
+                .map(|j| {
+                    format!(
+                        "{} ({}/{} tiles)",
+                        j.state.as_str(),
+                        j.tiles_done,
+                        j.tiles_total
+                    )
+                })
                 .unwrap_or_else(|_| "not done".into());
             bail!("job {} has no final image yet: it is {state}", args.job);
         }

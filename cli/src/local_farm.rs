@@ -57,7 +57,11 @@ where
     let shutdown = CancellationToken::new();
     // Stops everything when this function returns, whichever way.
     let _stop_all = shutdown.clone().drop_guard();
-    let server = tokio::spawn(spindle_server::run(config, listener, shutdown.clone()));
+    let server = tokio::spawn(spindle_server::run(
+        config,
+        listener,
+        shutdown.clone().cancelled_owned(),
+    ));
 
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let threads = (cores / workers).max(1);

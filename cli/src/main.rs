@@ -26,7 +26,12 @@ use clap::{Parser, Subcommand};
 )]
 struct Cli {
     /// The coordinator's URL (for submit, status, fetch, cancel).
-    #[arg(long, global = true, env = "SPINDLE_SERVER", default_value = "http://127.0.0.1:7878")]
+    #[arg(
+        long,
+        global = true,
+        env = "SPINDLE_SERVER",
+        default_value = "http://127.0.0.1:7878"
+    )]
     server: String,
     #[command(subcommand)]
     command: Command,
@@ -57,7 +62,10 @@ fn main() -> ExitCode {
         .with_ansi(std::io::stderr().is_terminal())
         .init();
     let cli = Cli::parse();
-    let runtime = match tokio::runtime::Builder::new_multi_thread().enable_all().build() {
+    let runtime = match tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+    {
         Ok(rt) => rt,
         Err(e) => {
             eprintln!("spindle: cannot start the async runtime: {e}");

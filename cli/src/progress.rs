@@ -93,7 +93,10 @@ pub fn require_done(info: &JobInfo) -> Result<()> {
             "job {} {}{}",
             info.id,
             state.as_str(),
-            info.error.as_deref().map(|e| format!(": {e}")).unwrap_or_default()
+            info.error
+                .as_deref()
+                .map(|e| format!(": {e}"))
+                .unwrap_or_default()
         ),
     }
 }

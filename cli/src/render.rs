@@ -72,7 +72,9 @@ impl RenderArgs {
 fn parse_numbers<const N: usize>(text: &str) -> Result<[u32; N], String> {
     let parts: Vec<&str> = text.split(',').collect();
     if parts.len() != N {
-        return Err(format!("expected {N} comma-separated numbers, got {text:?}"));
+        return Err(format!(
+            "expected {N} comma-separated numbers, got {text:?}"
+        ));
     }
     let mut out = [0u32; N];
     for (o, p) in out.iter_mut().zip(parts) {
@@ -100,7 +102,9 @@ fn parse_pixel(text: &str) -> Result<(u32, u32), String> {
 }
 
 pub async fn run(args: &RenderArgs) -> Result<()> {
-    let workers = args.workers.unwrap_or_else(crate::local_farm::default_workers);
+    let workers = args
+        .workers
+        .unwrap_or_else(crate::local_farm::default_workers);
     if workers == 0 {
         return tokio::task::block_in_place(|| in_process(args));
     }
@@ -195,7 +199,10 @@ fn in_process(args: &RenderArgs) -> Result<()> {
         let value = render_pixel(&scene, x, y);
         let r = value.radiance;
         println!("pixel {x},{y}:");
-        println!("  total          {:?}", (r.surface + r.single_scatter).to_array());
+        println!(
+            "  total          {:?}",
+            (r.surface + r.single_scatter).to_array()
+        );
         println!("  surface        {:?}", r.surface.to_array());
         println!("  single_scatter {:?}", r.single_scatter.to_array());
     }
@@ -226,7 +233,10 @@ fn in_process(args: &RenderArgs) -> Result<()> {
     a.insert("spindle.lights".into(), summary.lights.to_string());
     a.insert(
         "spindle.region".into(),
-        format!("{},{},{},{}", region.x, region.y, region.width, region.height),
+        format!(
+            "{},{},{},{}",
+            region.x, region.y, region.width, region.height
+        ),
     );
     if !summary.warnings.is_empty() {
         a.insert("spindle.warnings".into(), summary.warnings.join("; "));
@@ -242,7 +252,10 @@ fn in_process(args: &RenderArgs) -> Result<()> {
         if region == full {
             String::new()
         } else {
-            format!(", region {},{} {}x{}", region.x, region.y, region.width, region.height)
+            format!(
+                ", region {},{} {}x{}",
+                region.x, region.y, region.width, region.height
+            )
         },
         summary.spp,
         summary.triangles,

@@ -40,7 +40,10 @@ mod tests {
         let a: Vec<String> = (0..100).map(|_| random_hex()).collect();
         for s in &a {
             assert_eq!(s.len(), 64);
-            assert!(s.bytes().all(|b| b.is_ascii_hexdigit() && !b.is_ascii_uppercase()));
+            assert!(
+                s.bytes()
+                    .all(|b| b.is_ascii_hexdigit() && !b.is_ascii_uppercase())
+            );
         }
         let unique: std::collections::BTreeSet<&String> = a.iter().collect();
         assert_eq!(unique.len(), a.len());

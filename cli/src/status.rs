@@ -32,7 +32,10 @@ pub async fn run(api: &Api, args: &StatusArgs) -> Result<()> {
             } else if list.jobs.is_empty() {
                 println!("no jobs");
             } else {
-                println!("{:>6}  {:<10} {:>5}  {:>13}  {:>9}  {:>8}", "job", "state", "prio", "tiles", "size", "elapsed");
+                println!(
+                    "{:>6}  {:<10} {:>5}  {:>13}  {:>9}  {:>8}",
+                    "job", "state", "prio", "tiles", "size", "elapsed"
+                );
                 for j in &list.jobs {
                     println!(
                         "{:>6}  {:<10} {:>5}  {:>13}  {:>9}  {:>7.1}s",

@@ -73,9 +73,14 @@ pub async fn submit_scene_file(
             .context("asking the coordinator which meshes it lacks")?;
         for hash in missing {
             let Some(bytes) = by_hash.get(hash.as_str()) else {
-                anyhow::bail!("the coordinator asked for asset {hash}, which this scene does not have");
+                anyhow::bail!(
+                    "the coordinator asked for asset {hash}, which this scene does not have"
+                );
             };
-            let path = table.iter().find(|(_, h)| **h == hash).map_or("?", |(p, _)| p.as_str());
+            let path = table
+                .iter()
+                .find(|(_, h)| **h == hash)
+                .map_or("?", |(p, _)| p.as_str());
             api.put_asset(&hash, bytes)
                 .await
                 .with_context(|| format!("uploading {path} ({} bytes)", bytes.len()))?;

@@ -55,7 +55,12 @@ pub struct Proc {
 impl Proc {
     /// Starts `command` with exactly the spindle tokens in `env` (none inherited), logging to
     /// `dir/<name>.log` (appending, so a restarted process keeps one log).
-    pub fn spawn(mut command: Command, env: &[(&str, &str)], dir: &Path, name: &str) -> Result<Proc> {
+    pub fn spawn(
+        mut command: Command,
+        env: &[(&str, &str)],
+        dir: &Path,
+        name: &str,
+    ) -> Result<Proc> {
         let log = dir.join(format!("{name}.log"));
         let file = std::fs::OpenOptions::new()
             .create(true)
@@ -122,7 +127,11 @@ impl Proc {
                 return Ok(status);
             }
             if Instant::now() > deadline {
-                bail!("{} did not exit within {timeout:?}; log:\n{}", self.name, self.log());
+                bail!(
+                    "{} did not exit within {timeout:?}; log:\n{}",
+                    self.name,
+                    self.log()
+                );
             }
             tokio::time::sleep(Duration::from_millis(50)).await;
         }
@@ -196,7 +205,10 @@ impl Farm {
         let deadline = Instant::now() + Duration::from_secs(30);
         loop {
             if let Some(status) = proc.try_status() {
-                bail!("spindle-server exited at start ({status}); log:\n{}", proc.log());
+                bail!(
+                    "spindle-server exited at start ({status}); log:\n{}",
+                    proc.log()
+                );
             }
             let ready = self.http.get(self.url("/readyz")).send().await;
             if matches!(&ready, Ok(r) if r.status().is_success()) {
@@ -236,9 +248,16 @@ impl Farm {
     /// Waits until worker `i` has registered with the coordinator.
     pub async fn wait_registered(&self, i: usize) -> Result<()> {
         let deadline = Instant::now() + Duration::from_secs(30);
-        while !self.workers[i].log().contains("registered with the coordinator") {
+        while !self.workers[i]
+            .log()
+            .contains("registered with the coordinator")
+        {
             if Instant::now() > deadline {
-                bail!("worker {} did not register within 30 s\n{}", self.workers[i].name, self.logs());
+                bail!(
+                    "worker {} did not register within 30 s\n{}",
+                    self.workers[i].name,
+                    self.logs()
+                );
             }
             tokio::time::sleep(Duration::from_millis(20)).await;
         }
@@ -339,7 +358,12 @@ impl Farm {
             .wait_job(id, timeout, |j| j.state.is_finished())
             .await?;
         if info.state != spindle_common::protocol::JobState::Done {
-            bail!("job {id} ended {:?}: {:?}\n{}", info.state, info.error, self.logs());
+            bail!(
+                "job {id} ended {:?}: {:?}\n{}",
+                info.state,
+                info.error,
+                self.logs()
+            );
         }
         Ok(info)
     }
@@ -416,12 +440,20 @@ pub fn reference_image(scene: &Value, assets: &Assets) -> Result<Image> {
             .insert_tile(&render_tile(&scene, rect))
             .map_err(|e| anyhow!("{e}"))?;
     }
+    // A black frame would make every comparison trivially true.
+    if !image.total.iter().any(|&v| v > 0.0) {
+        bail!("the reference render is black");
+    }
     Ok(image)
 }
 
 /// Panics unless every layer of `a` and `b` is the same bits, naming the first difference.
 pub fn assert_bit_identical(a: &Image, b: &Image) {
-    assert_eq!((a.width, a.height), (b.width, b.height), "image sizes differ");
+    assert_eq!(
+        (a.width, a.height),
+        (b.width, b.height),
+        "image sizes differ"
+    );
     let names = ["total", "surface", "single_scatter"];
     for ((name, la), lb) in names.iter().zip(a.layers()).zip(b.layers()) {
         assert_eq!(la.len(), lb.len(), "layer {name} lengths differ");

@@ -38,8 +38,24 @@ async fn assert_untouched(farm: &Farm, job: &JobInfo, after: &str) {
     assert_eq!(now.len(), 1, "after {after}: {now:?}");
     let j = &now[0];
     assert_eq!(
-        (j.id, j.state, j.tiles_done, j.tiles_total, j.width, j.height, &j.error),
-        (job.id, job.state, job.tiles_done, job.tiles_total, job.width, job.height, &job.error),
+        (
+            j.id,
+            j.state,
+            j.tiles_done,
+            j.tiles_total,
+            j.width,
+            j.height,
+            &j.error
+        ),
+        (
+            job.id,
+            job.state,
+            job.tiles_done,
+            job.tiles_total,
+            job.width,
+            job.height,
+            &job.error
+        ),
         "after {after}"
     );
 }
@@ -110,9 +126,21 @@ async fn bad_requests_get_the_right_4xx_and_leave_jobs_alone() {
         let (status, _) = send(farm.http.get(&url).bearer_auth("not-the-token")).await;
         assert_eq!(status, StatusCode::UNAUTHORIZED, "wrong token");
         let (status, _) = send(farm.worker(Method::GET, "/v1/jobs")).await;
-        assert_eq!(status, StatusCode::UNAUTHORIZED, "worker token on a client route");
-        let (status, _) = send(farm.client(Method::POST, "/v1/workers").json(&json!({"name": "x", "threads": 1}))).await;
-        assert_eq!(status, StatusCode::UNAUTHORIZED, "client token on a worker route");
+        assert_eq!(
+            status,
+            StatusCode::UNAUTHORIZED,
+            "worker token on a client route"
+        );
+        let (status, _) = send(
+            farm.client(Method::POST, "/v1/workers")
+                .json(&json!({"name": "x", "threads": 1})),
+        )
+        .await;
+        assert_eq!(
+            status,
+            StatusCode::UNAUTHORIZED,
+            "client token on a worker route"
+        );
         assert_untouched(&farm, &job, "missing or wrong tokens").await;
 
         // A body over the JSON limit (4 MiB).
@@ -123,7 +151,11 @@ async fn bad_requests_get_the_right_4xx_and_leave_jobs_alone() {
                 .body(format!("{{\"scene\": \"{padding}\"}}")),
         )
         .await;
-        assert_eq!(status, StatusCode::PAYLOAD_TOO_LARGE, "oversized body: {msg}");
+        assert_eq!(
+            status,
+            StatusCode::PAYLOAD_TOO_LARGE,
+            "oversized body: {msg}"
+        );
         assert_untouched(&farm, &job, "an oversized body").await;
 
         // Still healthy after all that.
@@ -159,7 +191,12 @@ async fn lease(farm: &Farm, worker: u64) -> Option<Lease> {
     }
 }
 
-async fn upload(farm: &Farm, worker: u64, lease: &Lease, pixels: &TilePixels) -> (StatusCode, String) {
+async fn upload(
+    farm: &Farm,
+    worker: u64,
+    lease: &Lease,
+    pixels: &TilePixels,
+) -> (StatusCode, String) {
     let body = TileUpload {
         worker_id: worker,
         epoch: lease.epoch,
@@ -167,8 +204,11 @@ async fn upload(farm: &Farm, worker: u64, lease: &Lease, pixels: &TilePixels) ->
         pixels: pixels.clone(),
     };
     send(
-        farm.worker(Method::PUT, &format!("/v1/jobs/{}/tiles/{}", lease.job_id, lease.tile_index))
-            .json(&body),
+        farm.worker(
+            Method::PUT,
+            &format!("/v1/jobs/{}/tiles/{}", lease.job_id, lease.tile_index),
+        )
+        .json(&body),
     )
     .await
 }
@@ -182,14 +222,19 @@ async fn a_stale_lease_epoch_is_refused_and_a_late_identical_result_accepted() {
         let job = farm.submit(&scene, &assets, 4).await.unwrap();
 
         let slow = register(&farm, "slow").await;
-        let first = lease(&farm, slow).await.expect("a tile for the first worker");
+        let first = lease(&farm, slow)
+            .await
+            .expect("a tile for the first worker");
         assert_eq!(first.job_id, job.id);
 
         // The slow worker misses its heartbeats; the tile is leased again with a newer epoch.
         let fast = register(&farm, "fast").await;
         let deadline = std::time::Instant::now() + Duration::from_secs(20);
         let second = loop {
-            assert!(std::time::Instant::now() < deadline, "the tile was never leased again");
+            assert!(
+                std::time::Instant::now() < deadline,
+                "the tile was never leased again"
+            );
             match lease(&farm, fast).await {
                 Some(l) if l.tile_index == first.tile_index => break l,
                 _ => tokio::time::sleep(Duration::from_millis(100)).await,
@@ -209,8 +254,11 @@ async fn a_stale_lease_epoch_is_refused_and_a_late_identical_result_accepted() {
 
         // A heartbeat on the stale lease is refused too.
         let (status, _) = send(
-            farm.worker(Method::POST, &format!("/v1/leases/{}/{}/heartbeat", job.id, first.tile_index))
-                .json(&json!({ "worker_id": slow, "epoch": first.epoch })),
+            farm.worker(
+                Method::POST,
+                &format!("/v1/leases/{}/{}/heartbeat", job.id, first.tile_index),
+            )
+            .json(&json!({ "worker_id": slow, "epoch": first.epoch })),
         )
         .await;
         assert_eq!(status, StatusCode::CONFLICT, "stale heartbeat");
@@ -220,7 +268,10 @@ async fn a_stale_lease_epoch_is_refused_and_a_late_identical_result_accepted() {
         let (status, msg) = upload(&farm, fast, &second, &right).await;
         assert_eq!(status, StatusCode::OK, "current upload: {msg}");
         let resp = farm
-            .worker(Method::PUT, &format!("/v1/jobs/{}/tiles/{}", job.id, first.tile_index))
+            .worker(
+                Method::PUT,
+                &format!("/v1/jobs/{}/tiles/{}", job.id, first.tile_index),
+            )
             .json(&TileUpload {
                 worker_id: slow,
                 epoch: first.epoch,
@@ -231,7 +282,10 @@ async fn a_stale_lease_epoch_is_refused_and_a_late_identical_result_accepted() {
             .await
             .unwrap();
         assert_eq!(resp.status(), StatusCode::OK, "late identical upload");
-        assert_eq!(resp.json::<TileAck>().await.unwrap().outcome, TileOutcome::Duplicate);
+        assert_eq!(
+            resp.json::<TileAck>().await.unwrap().outcome,
+            TileOutcome::Duplicate
+        );
         let (status, msg) = upload(&farm, slow, &first, &different).await;
         assert_eq!(status, StatusCode::CONFLICT, "late different upload: {msg}");
 
@@ -244,8 +298,11 @@ async fn a_stale_lease_epoch_is_refused_and_a_late_identical_result_accepted() {
         };
         lying.hash = pixel_hash(&right);
         let (status, msg) = send(
-            farm.worker(Method::PUT, &format!("/v1/jobs/{}/tiles/{}", job.id, first.tile_index))
-                .json(&lying),
+            farm.worker(
+                Method::PUT,
+                &format!("/v1/jobs/{}/tiles/{}", job.id, first.tile_index),
+            )
+            .json(&lying),
         )
         .await;
         assert_eq!(status, StatusCode::BAD_REQUEST, "wrong pixel hash: {msg}");

@@ -60,10 +60,38 @@ async fn render_on_the_local_farm_matches_render_in_process() {
     let here_exr = dir.path().join("here.exr");
     let s = scene.to_str().unwrap();
 
-    let out = spindle(&["render", s, "-o", farm_exr.to_str().unwrap(), "--workers", "2", "--tile-size", "8"], None).await;
+    let out = spindle(
+        &[
+            "render",
+            s,
+            "-o",
+            farm_exr.to_str().unwrap(),
+            "--workers",
+            "2",
+            "--tile-size",
+            "8",
+        ],
+        None,
+    )
+    .await;
     assert!(out.status.success(), "{}", text(&out));
-    assert!(String::from_utf8_lossy(&out.stdout).contains("local farm of 2 workers"), "{}", text(&out));
-    let out = spindle(&["render", s, "-o", here_exr.to_str().unwrap(), "--workers", "0"], None).await;
+    assert!(
+        String::from_utf8_lossy(&out.stdout).contains("local farm of 2 workers"),
+        "{}",
+        text(&out)
+    );
+    let out = spindle(
+        &[
+            "render",
+            s,
+            "-o",
+            here_exr.to_str().unwrap(),
+            "--workers",
+            "0",
+        ],
+        None,
+    )
+    .await;
     assert!(out.status.success(), "{}", text(&out));
 
     let farm = read_exr(&farm_exr).unwrap();
@@ -74,7 +102,10 @@ async fn render_on_the_local_farm_matches_render_in_process() {
     assert_bit_identical(&here, &reference_image(&desc, &assets).unwrap());
     for png in ["farm.png", "here.png"] {
         let bytes = std::fs::read(dir.path().join(png)).unwrap();
-        assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n"), "{png} is not a PNG");
+        assert!(
+            bytes.starts_with(b"\x89PNG\r\n\x1a\n"),
+            "{png} is not a PNG"
+        );
     }
 }
 
@@ -82,15 +113,31 @@ async fn render_on_the_local_farm_matches_render_in_process() {
 async fn render_reports_a_bad_scene_by_its_json_path() {
     let dir = tempfile::tempdir().unwrap();
     let scene = write_scene(dir.path(), 8, 8, 1);
-    let mut json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&scene).unwrap()).unwrap();
+    let mut json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&scene).unwrap()).unwrap();
     json["objects"][1]["material"]["medium"]["albedo"][1] = serde_json::json!(1.5);
     std::fs::write(&scene, json.to_string()).unwrap();
     let out_exr = dir.path().join("x.exr");
     for workers in ["0", "2"] {
-        let out = spindle(&["render", scene.to_str().unwrap(), "-o", out_exr.to_str().unwrap(), "--workers", workers], None).await;
+        let out = spindle(
+            &[
+                "render",
+                scene.to_str().unwrap(),
+                "-o",
+                out_exr.to_str().unwrap(),
+                "--workers",
+                workers,
+            ],
+            None,
+        )
+        .await;
         assert!(!out.status.success(), "{}", text(&out));
         let err = String::from_utf8_lossy(&out.stderr);
-        assert!(err.contains("objects[1].material.medium.albedo[1]"), "{}", text(&out));
+        assert!(
+            err.contains("objects[1].material.medium.albedo[1]"),
+            "{}",
+            text(&out)
+        );
         assert!(!out_exr.exists());
     }
 }
@@ -106,40 +153,77 @@ async fn submit_wait_status_fetch_and_cancel_against_a_coordinator() {
         // With no worker, a job stays queued and can be cancelled.
         let out = spindle(&["submit", s], Some(&farm)).await;
         assert!(out.status.success(), "{}", text(&out));
-        let queued: u64 = String::from_utf8_lossy(&out.stdout).trim().parse().expect("a job id");
+        let queued: u64 = String::from_utf8_lossy(&out.stdout)
+            .trim()
+            .parse()
+            .expect("a job id");
         let out = spindle(&["cancel", &queued.to_string()], Some(&farm)).await;
         assert!(out.status.success(), "{}", text(&out));
         assert_eq!(farm.job(queued).await.unwrap().state, JobState::Cancelled);
-        let out = spindle(&["fetch", &queued.to_string(), "-o", dir.path().join("no.exr").to_str().unwrap()], Some(&farm)).await;
-        assert!(!out.status.success(), "fetching a cancelled job: {}", text(&out));
+        let out = spindle(
+            &[
+                "fetch",
+                &queued.to_string(),
+                "-o",
+                dir.path().join("no.exr").to_str().unwrap(),
+            ],
+            Some(&farm),
+        )
+        .await;
+        assert!(
+            !out.status.success(),
+            "fetching a cancelled job: {}",
+            text(&out)
+        );
 
         // With a worker, submit --wait returns once the job is done.
         farm.add_worker("w", 2).unwrap();
         let out = spindle(&["submit", s, "--wait", "--tile-size", "8"], Some(&farm)).await;
         assert!(out.status.success(), "{}\n{}", text(&out), farm.logs());
-        let id: u64 = String::from_utf8_lossy(&out.stdout).trim().parse().expect("a job id");
+        let id: u64 = String::from_utf8_lossy(&out.stdout)
+            .trim()
+            .parse()
+            .expect("a job id");
         assert_ne!(id, queued);
 
         let out = spindle(&["status", &id.to_string(), "--json"], Some(&farm)).await;
         assert!(out.status.success(), "{}", text(&out));
-        let info: JobInfo = serde_json::from_slice(&out.stdout).expect("status --json is a JobInfo");
+        let info: JobInfo =
+            serde_json::from_slice(&out.stdout).expect("status --json is a JobInfo");
         assert_eq!(info.state, JobState::Done);
         let out = spindle(&["status"], Some(&farm)).await;
         assert!(out.status.success(), "{}", text(&out));
-        assert!(String::from_utf8_lossy(&out.stdout).contains("cancelled"), "{}", text(&out));
+        assert!(
+            String::from_utf8_lossy(&out.stdout).contains("cancelled"),
+            "{}",
+            text(&out)
+        );
 
         let exr = dir.path().join("fetched.exr");
-        let out = spindle(&["fetch", &id.to_string(), "-o", exr.to_str().unwrap()], Some(&farm)).await;
+        let out = spindle(
+            &["fetch", &id.to_string(), "-o", exr.to_str().unwrap()],
+            Some(&farm),
+        )
+        .await;
         assert!(out.status.success(), "{}", text(&out));
         let (desc, assets) = test_scene(24, 16, 1);
-        assert_bit_identical(&read_exr(&exr).unwrap(), &reference_image(&desc, &assets).unwrap());
+        assert_bit_identical(
+            &read_exr(&exr).unwrap(),
+            &reference_image(&desc, &assets).unwrap(),
+        );
 
         // A wrong token is refused with a clear message.
         let mut cmd = Command::new(binary("spindle"));
-        cmd.args(["status"]).env("SPINDLE_SERVER", farm.base()).env("SPINDLE_TOKEN", "wrong");
+        cmd.args(["status"])
+            .env("SPINDLE_SERVER", farm.base())
+            .env("SPINDLE_TOKEN", "wrong");
         let out = cmd.output().unwrap();
         assert!(!out.status.success());
-        assert!(String::from_utf8_lossy(&out.stderr).contains("401"), "{}", text(&out));
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains("401"),
+            "{}",
+            text(&out)
+        );
     })
     .await
     .expect("the test finished in time");

@@ -39,8 +39,15 @@ async fn two_workers_render_a_job_bit_identical_to_one_process() {
         assert_eq!(done.stats.camera_rays, 48 * 32 * 2);
 
         // Both workers rendered tiles, as acknowledged by the coordinator.
-        let (a, b) = (accepted_tiles(&farm.workers[0].log()), accepted_tiles(&farm.workers[1].log()));
-        assert!(a >= 1 && b >= 1, "tiles accepted per worker: {a} and {b}\n{}", farm.logs());
+        let (a, b) = (
+            accepted_tiles(&farm.workers[0].log()),
+            accepted_tiles(&farm.workers[1].log()),
+        );
+        assert!(
+            a >= 1 && b >= 1,
+            "tiles accepted per worker: {a} and {b}\n{}",
+            farm.logs()
+        );
         assert_eq!(a + b, done.tiles_total as usize, "{}", farm.logs());
         Ok(())
     })
@@ -50,7 +57,7 @@ async fn two_workers_render_a_job_bit_identical_to_one_process() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_worker_killed_mid_job_does_not_change_the_image() {
     bounded(async {
-        let (scene, assets) = test_scene(48, 32, 6);
+        let (scene, assets) = test_scene(48, 32, 12);
         let reference = reference_image(&scene, &assets)?;
         // A short lease, so the killed worker's tile goes back to the queue quickly.
         let mut farm = Farm::start(1.0).await?;
@@ -61,7 +68,11 @@ async fn a_worker_killed_mid_job_does_not_change_the_image() {
         // Mid-job: the doomed worker has delivered a tile and the job is not finished.
         let deadline = std::time::Instant::now() + Duration::from_secs(60);
         while accepted_tiles(&farm.workers[0].log()) == 0 {
-            assert!(std::time::Instant::now() < deadline, "no tile from the doomed worker\n{}", farm.logs());
+            assert!(
+                std::time::Instant::now() < deadline,
+                "no tile from the doomed worker\n{}",
+                farm.logs()
+            );
             tokio::time::sleep(Duration::from_millis(10)).await;
         }
         farm.workers[0].kill();
@@ -75,7 +86,7 @@ async fn a_worker_killed_mid_job_does_not_change_the_image() {
         let done = farm.wait_done(job.id, Duration::from_secs(120)).await?;
         assert_bit_identical(&farm.image(job.id).await?, &reference);
         assert_eq!(done.tiles_done, done.tiles_total);
-        assert_eq!(done.stats.camera_rays, 48 * 32 * 6);
+        assert_eq!(done.stats.camera_rays, 48 * 32 * 12);
         assert!(accepted_tiles(&farm.workers[1].log()) >= 1);
         Ok(())
     })
@@ -85,7 +96,7 @@ async fn a_worker_killed_mid_job_does_not_change_the_image() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_coordinator_killed_and_restarted_mid_job_loses_and_doubles_nothing() {
     bounded(async {
-        let (scene, assets) = test_scene(48, 32, 6);
+        let (scene, assets) = test_scene(48, 32, 12);
         let reference = reference_image(&scene, &assets)?;
         let mut farm = Farm::start(2.0).await?;
         farm.add_worker("w1", 1)?;
@@ -93,9 +104,14 @@ async fn the_coordinator_killed_and_restarted_mid_job_loses_and_doubles_nothing(
         let job = farm.submit(&scene, &assets, 4).await?;
         let total = job.tiles_total;
         let before = farm
-            .wait_job(job.id, Duration::from_secs(60), |j| j.tiles_done >= total / 4)
+            .wait_job(job.id, Duration::from_secs(60), |j| {
+                j.tiles_done >= total / 4
+            })
             .await?;
-        assert!(before.tiles_done < total, "the job finished before the coordinator was killed");
+        assert!(
+            before.tiles_done < total,
+            "the job finished before the coordinator was killed"
+        );
         farm.kill_server();
         // Workers keep rendering and retrying while it is away.
         tokio::time::sleep(Duration::from_millis(700)).await;
@@ -105,9 +121,14 @@ async fn the_coordinator_killed_and_restarted_mid_job_loses_and_doubles_nothing(
         assert_bit_identical(&farm.image(job.id).await?, &reference);
         assert_eq!(done.tiles_done, total);
         // No tile counted twice (nor lost): exactly one camera ray per pixel sample.
-        assert_eq!(done.stats.camera_rays, 48 * 32 * 6, "{}", farm.logs());
+        assert_eq!(done.stats.camera_rays, 48 * 32 * 12, "{}", farm.logs());
         for w in &mut farm.workers {
-            assert!(w.try_status().is_none(), "worker {} exited:\n{}", w.name, w.log());
+            assert!(
+                w.try_status().is_none(),
+                "worker {} exited:\n{}",
+                w.name,
+                w.log()
+            );
         }
         Ok(())
     })
@@ -125,7 +146,11 @@ async fn sigterm_mid_job_exits_cleanly_and_the_job_completes_elsewhere() {
         let job = farm.submit(&scene, &assets, 4).await?;
         let deadline = std::time::Instant::now() + Duration::from_secs(60);
         while accepted_tiles(&farm.workers[0].log()) == 0 {
-            assert!(std::time::Instant::now() < deadline, "no tile delivered\n{}", farm.logs());
+            assert!(
+                std::time::Instant::now() < deadline,
+                "no tile delivered\n{}",
+                farm.logs()
+            );
             tokio::time::sleep(Duration::from_millis(10)).await;
         }
         farm.workers[0].terminate()?;
