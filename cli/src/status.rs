@@ -67,10 +67,8 @@ fn describe(j: &JobInfo) -> String {
         j.tiles_total,
         j.elapsed_s
     );
-    if let Some(eta) = j.eta_s {
-        if !j.state.is_finished() {
-            s.push_str(&format!("  eta       {eta:.1} s\n"));
-        }
+    if let Some(eta) = j.eta_s.filter(|_| !j.state.is_finished()) {
+        s.push_str(&format!("  eta       {eta:.1} s\n"));
     }
     if let Some(e) = &j.error {
         s.push_str(&format!("  error     {e}\n"));
