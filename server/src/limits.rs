@@ -19,6 +19,8 @@ pub struct Limits {
     pub max_triangles: u64,
     pub min_tile_size: u32,
     pub max_tile_size: u32,
+    /// Tiles of one job (each is tracked in memory and leased separately).
+    pub max_tiles_per_job: u64,
     /// Jobs queued or running at once (finished jobs do not count).
     pub max_active_jobs: usize,
     /// JSON request bodies (job submissions, asset queries, …).
@@ -41,6 +43,7 @@ impl Default for Limits {
             max_triangles: 20_000_000,
             min_tile_size: 4,
             max_tile_size: 256,
+            max_tiles_per_job: 1 << 16,
             max_active_jobs: 64,
             max_json_bytes: 4 << 20,
             // A 256 × 256 tile is 589 824 floats; as JSON at most ~16 bytes each.
@@ -79,6 +82,14 @@ impl Limits {
             return Err(format!(
                 "tile_size: must be between {} and {}",
                 self.min_tile_size, self.max_tile_size
+            ));
+        }
+        let tiles = film.width.div_ceil(tile_size) as u64 * film.height.div_ceil(tile_size) as u64;
+        if tiles > self.max_tiles_per_job {
+            return Err(format!(
+                "tile_size: {tile_size} px tiles cut the image into {tiles} tiles, more than the \
+                 limit of {}; use larger tiles",
+                self.max_tiles_per_job
             ));
         }
         Ok(())

@@ -135,6 +135,16 @@ async fn bad_input_gets_a_clear_4xx_and_leaves_existing_jobs_untouched() {
             "tile_size: must be between",
         ),
         (
+            "too many tiles",
+            with_scene(&|b| {
+                b["scene"]["film"]["width"] = json!(4096);
+                b["scene"]["film"]["height"] = json!(4096);
+                b["tile_size"] = json!(4);
+            }),
+            StatusCode::BAD_REQUEST,
+            "1048576 tiles, more than the limit of 65536",
+        ),
+        (
             "OBJ without its asset",
             with_scene(&|b| {
                 b["scene"]["objects"][0]["shape"] = json!({"type": "obj", "path": "m.obj"})
