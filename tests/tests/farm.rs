@@ -166,3 +166,39 @@ async fn sigterm_mid_job_exits_cleanly_and_the_job_completes_elsewhere() {
     })
     .await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn heartbeats_keep_a_lease_alive_through_a_tile_longer_than_its_ttl() {
+    bounded(async {
+        // One 32×32 tile that takes several times the 0.3 s lease to render on one thread. A
+        // second worker waits for work: if the first one's lease lapsed during the render, the
+        // tile would be leased to the second and the first one's upload refused.
+        let (scene, assets) = test_scene(32, 32, 512);
+        let reference = reference_image(&scene, &assets)?;
+        let mut farm = Farm::start(0.3).await?;
+        farm.add_worker("renderer", 1)?;
+        farm.wait_registered(0).await?;
+        let job = farm.submit(&scene, &assets, 32).await?;
+        assert_eq!(job.tiles_total, 1);
+        // The tile is leased: now start the worker that would steal it.
+        farm.wait_job(job.id, Duration::from_secs(30), |j| {
+            j.state != spindle_common::protocol::JobState::Queued
+        })
+        .await?;
+        farm.add_worker("thief", 1)?;
+        let done = farm.wait_done(job.id, Duration::from_secs(120)).await?;
+        assert_bit_identical(&farm.image(job.id).await?, &reference);
+        assert!(
+            done.elapsed_s > 0.9,
+            "the tile took {:.2} s; it must outlast the 0.3 s lease several times for this \
+             test to mean anything",
+            done.elapsed_s
+        );
+        let (renderer, thief) = (farm.workers[0].log(), farm.workers[1].log());
+        assert_eq!(accepted_tiles(&renderer), 1, "{}", farm.logs());
+        assert_eq!(accepted_tiles(&thief), 0, "{}", farm.logs());
+        assert!(!renderer.contains("lease lost"), "{}", farm.logs());
+        Ok(())
+    })
+    .await;
+}
