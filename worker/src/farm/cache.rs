@@ -171,3 +171,127 @@ impl SceneCache {
         )))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use spindle_common::protocol::JobSpec;
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+
+    /// A minimal HTTP/1.1 coordinator on loopback that answers each request with `answer(path)`
+    /// (status, body), one request per connection.
+    async fn fake_coordinator(answer: fn(&str) -> (u16, Vec<u8>)) -> String {
+        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+        let base = format!("http://{}", listener.local_addr().unwrap());
+        tokio::spawn(async move {
+            while let Ok((mut socket, _)) = listener.accept().await {
+                tokio::spawn(async move {
+                    let mut head = Vec::new();
+                    let mut buf = [0u8; 1024];
+                    while !head.windows(4).any(|w| w == b"\r\n\r\n") {
+                        match socket.read(&mut buf).await {
+                            Ok(0) | Err(_) => return,
+                            Ok(n) => head.extend_from_slice(&buf[..n]),
+                        }
+                    }
+                    let text = String::from_utf8_lossy(&head);
+                    let path = text.split_whitespace().nth(1).unwrap_or("/").to_string();
+                    let (status, body) = answer(&path);
+                    let reply = format!(
+                        "HTTP/1.1 {status} X\r\ncontent-length: {}\r\ncontent-type: application/json\r\nconnection: close\r\n\r\n",
+                        body.len()
+                    );
+                    let _ = socket.write_all(reply.as_bytes()).await;
+                    let _ = socket.write_all(&body).await;
+                });
+            }
+        });
+        base
+    }
+
+    const MESH: &[u8] = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+
+    fn spec_with(hash: &str) -> Vec<u8> {
+        let scene = serde_json::json!({
+            "camera": { "position": [0, 0, 5], "look_at": [0, 0, 0], "fov_y": 40 },
+            "film": { "width": 4, "height": 4 },
+            "objects": [{
+                "shape": { "type": "obj", "path": "tri.obj" },
+                "material": { "type": "diffuse", "reflectance": [0.5, 0.5, 0.5] }
+            }]
+        });
+        let spec = JobSpec {
+            scene: serde_json::from_value(scene).unwrap(),
+            assets: BTreeMap::from([("tri.obj".to_string(), hash.to_string())]),
+            tile_size: 4,
+        };
+        serde_json::to_vec(&spec).unwrap()
+    }
+
+    fn cache(base: &str) -> SceneCache {
+        let pool = Arc::new(
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(1)
+                .build()
+                .unwrap(),
+        );
+        let backoff = Backoff {
+            initial: std::time::Duration::from_millis(1),
+            max: std::time::Duration::from_millis(5),
+        };
+        SceneCache::new(Client::new(base, None).unwrap(), pool, backoff)
+    }
+
+    #[tokio::test]
+    async fn an_asset_whose_bytes_do_not_match_its_hash_fails_the_job() {
+        let base = fake_coordinator(|path| {
+            if path.starts_with("/v1/jobs/") {
+                (200, spec_with(&asset_hash(MESH)))
+            } else {
+                // The right name, the wrong bytes.
+                (200, b"v 9 9 9\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".to_vec())
+            }
+        })
+        .await;
+        let err = cache(&base)
+            .get(1, &CancellationToken::new())
+            .await
+            .err()
+            .expect("a corrupted asset must not build");
+        match err {
+            LoadError::Broken(reason) => {
+                assert!(reason.contains(&asset_hash(MESH)), "{reason}");
+                assert!(reason.contains("hash to"), "{reason}");
+            }
+            other => panic!("expected Broken, got {other:?}"),
+        }
+    }
+
+    #[tokio::test]
+    async fn a_verified_scene_is_built_once_and_served_from_the_cache() {
+        let base = fake_coordinator(|path| {
+            if path.starts_with("/v1/jobs/") {
+                (200, spec_with(&asset_hash(MESH)))
+            } else if path == format!("/v1/assets/{}", asset_hash(MESH)) {
+                (200, MESH.to_vec())
+            } else {
+                (404, br#"{"error":"no such thing"}"#.to_vec())
+            }
+        })
+        .await;
+        let mut cache = cache(&base);
+        let stop = CancellationToken::new();
+        let a = cache.get(1, &stop).await.expect("the scene builds");
+        let b = cache.get(1, &stop).await.expect("the scene is cached");
+        assert!(Arc::ptr_eq(&a, &b));
+        assert_eq!(cache.builds(), 1);
+        assert_eq!(a.triangle_count(), 1);
+    }
+
+    #[tokio::test]
+    async fn a_missing_job_is_gone_not_broken() {
+        let base = fake_coordinator(|_| (404, br#"{"error":"no job 1"}"#.to_vec())).await;
+        let err = cache(&base).get(1, &CancellationToken::new()).await.err();
+        assert!(matches!(err, Some(LoadError::Gone)), "{err:?}");
+    }
+}
