@@ -253,11 +253,9 @@ mod tests {
             }
         })
         .await;
-        let err = cache(&base)
-            .get(1, &CancellationToken::new())
-            .await
-            .err()
-            .expect("a corrupted asset must not build");
+        let Err(err) = cache(&base).get(1, &CancellationToken::new()).await else {
+            panic!("a corrupted asset must not build");
+        };
         match err {
             LoadError::Broken(reason) => {
                 assert!(reason.contains(&asset_hash(MESH)), "{reason}");
