@@ -19,6 +19,7 @@ use spindle_common::protocol::DEFAULT_TILE_SIZE;
 use spindle_common::scene::Scene as SceneDesc;
 use spindle_common::stats::RenderStats;
 use spindle_common::tile::TileRect;
+use spindle_worker::render::scatter::describe_plan;
 use spindle_worker::render::{Scene, render_pixel};
 
 use crate::load::load_scene;
@@ -121,6 +122,11 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
     let mut files = load_scene(&args.scene)?;
     args.edit(&mut files.desc);
     let desc = files.desc.clone();
+    // The workers build the scene again; here it is built once to say the single-scattering plan.
+    let scatter_plan = Scene::build(&files.desc, &files.assets)
+        .map(|scene| describe_plan(&scene))
+        .with_context(|| format!("invalid scene {}", args.scene.display()))?;
+    print_plan(&scatter_plan);
     drop(files);
     let result = crate::local_farm::render(workers, |api| async move {
         let edit = |s: &mut SceneDesc| args.edit(s);
@@ -133,6 +139,10 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
     let per_worker: Vec<String> = result.tiles_per_worker.iter().map(u64::to_string).collect();
     let a = &mut image.attributes;
     describe(a, args, &desc, &stats);
+    a.insert(
+        "spindle.single_scatter.plan".into(),
+        scatter_plan.join("; "),
+    );
     a.insert("spindle.workers".into(), workers.to_string());
     let preview = write_outputs(&image, &args.output)?;
     println!(
@@ -164,6 +174,8 @@ fn in_process(args: &RenderArgs) -> Result<()> {
     for warning in scene.warnings() {
         eprintln!("warning: {warning}");
     }
+    let scatter_plan = describe_plan(&scene);
+    print_plan(&scatter_plan);
 
     let full = TileRect {
         x: 0,
@@ -228,6 +240,10 @@ fn in_process(args: &RenderArgs) -> Result<()> {
 
     let a = &mut image.attributes;
     describe(a, args, &files.desc, &stats);
+    a.insert(
+        "spindle.single_scatter.plan".into(),
+        scatter_plan.join("; "),
+    );
     a.insert("spindle.triangles".into(), summary.triangles.to_string());
     a.insert("spindle.objects".into(), summary.objects.to_string());
     a.insert("spindle.lights".into(), summary.lights.to_string());
@@ -268,6 +284,13 @@ fn in_process(args: &RenderArgs) -> Result<()> {
     println!("preview {}", preview.display());
     print_stats(args, &stats);
     Ok(())
+}
+
+/// Says which single-scattering model runs for each object (the `auto` method's choice).
+fn print_plan(plan: &[String]) {
+    for line in plan {
+        println!("single scattering: {line}");
+    }
 }
 
 /// The header attributes both paths write.

@@ -38,6 +38,8 @@ fn renders_the_tiny_example_to_exr_and_png_matching_the_library() {
         "{stdout}"
     );
     assert!(dir.path().join("tiny.png").is_file());
+    // The single-scattering plan is said in the log and kept in the header.
+    assert!(stdout.contains("single scattering: objects[0]"), "{stdout}");
 
     let image = read_exr(&out).unwrap();
     let desc = SceneDesc::from_json(&std::fs::read_to_string(&scene_path).unwrap()).unwrap();
@@ -48,6 +50,14 @@ fn renders_the_tiny_example_to_exr_and_png_matching_the_library() {
     assert_eq!(
         image.attributes.get("spindle.spp"),
         Some(&desc.film.spp.to_string())
+    );
+    assert!(
+        image
+            .attributes
+            .get("spindle.single_scatter.plan")
+            .is_some_and(|plan| plan.starts_with("objects[0]: ")),
+        "{:?}",
+        image.attributes
     );
 
     // The file holds exactly what the library renders for the whole frame.
