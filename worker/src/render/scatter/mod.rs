@@ -68,7 +68,7 @@ pub fn single_scatter(
     let Some(bounds) = object_bounds(object) else {
         return Rgb::ZERO;
     };
-    if plan.model == Model::Skip || !(segment.length > 0.0) {
+    if plan.model == Model::Skip || !segment.length.is_finite() || segment.length <= 0.0 {
         return Rgb::ZERO;
     }
     let medium = dielectric.medium;
