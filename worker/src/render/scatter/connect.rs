@@ -58,7 +58,6 @@ impl Connection<'_> {
         if !self.inside_reaches(triangle, v, path.p, stats) {
             return Rgb::ZERO;
         }
-        stats.samples += 1;
         path_contribution(path, &self.ends, &self.medium, intensity)
     }
 

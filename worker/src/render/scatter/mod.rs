@@ -96,9 +96,15 @@ pub fn single_scatter(
         let length = segment.length;
         total += match plan.model {
             Model::Skip => Rgb::ZERO,
-            // Until the per-triangle intervals land (issue 3, in progress), the interval
-            // method is served by point sampling; `describe_plan` says so.
-            Model::Interval | Model::PointSampling => methods::point_sampling::estimate(
+            Model::Interval => methods::interval::estimate(
+                &connection,
+                length,
+                settings,
+                &mut stack,
+                sampler,
+                stats,
+            ),
+            Model::PointSampling => methods::point_sampling::estimate(
                 &connection,
                 length,
                 settings,

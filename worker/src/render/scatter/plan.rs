@@ -127,9 +127,7 @@ pub fn describe_plan(scene: &Scene) -> Vec<String> {
             let plan = plan_for(scene, object);
             let model = match plan.model {
                 Model::Skip => "none",
-                Model::Interval => {
-                    "interval (pending: per-triangle intervals not yet landed, point_sampling used)"
-                }
+                Model::Interval => "interval",
                 Model::PointSampling => "point_sampling",
                 Model::StraightLine => "straight_line",
                 Model::Reference => "reference",

@@ -3,11 +3,13 @@
 //! solver (`solve`) and the connection with its visibility tests (`connect`), and differ only in
 //! how they place samples along the segment:
 //!
+//! * [`interval`] — [H15]: per-triangle depth intervals, K samples in each;
 //! * [`point_sampling`] — [WZHB09]: M stratified points, every solution at each;
 //! * [`straight_line`] — [H15] App. B.3: no refraction, light crosses the boundary in a straight
 //!   line (exact for η = 1);
 //! * [`reference`] — brute force for tests: no pruning, many Newton starts per triangle.
 
+pub mod interval;
 pub mod point_sampling;
 pub mod reference;
 pub mod straight_line;

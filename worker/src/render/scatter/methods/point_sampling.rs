@@ -62,6 +62,7 @@ pub fn estimate(
                     if let Some(path) =
                         RefractionPath::from_zero(&patch, ends, t, a, b, &zero.residual)
                     {
+                        stats.samples += 1;
                         sum += connection.path_radiance(candidate.triangle, &path, stats);
                         break;
                     }

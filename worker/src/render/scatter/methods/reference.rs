@@ -80,6 +80,7 @@ pub fn estimate(
                 else {
                     continue;
                 };
+                stats.samples += 1;
                 found[count] = (a, b);
                 count += 1;
                 sum += connection.path_radiance(triangle, &path, stats);

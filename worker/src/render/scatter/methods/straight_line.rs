@@ -94,13 +94,13 @@ fn point_radiance(connection: &Connection<'_>, t: f64, stats: &mut RenderStats) 
         1.0 - reflectance(cos, ends.eta)
     };
     let intensity = connection.light.intensity_toward(v);
+    stats.samples += 1;
     if transmittance <= 0.0 || intensity.max_element() <= 0.0 {
         return Rgb::ZERO;
     }
     if !connection.light_reaches(triangle, x, dir, stats) {
         return Rgb::ZERO;
     }
-    stats.samples += 1;
     let medium = connection.medium;
     // Light propagates at V along −dir; the camera receives along −r̂: cos θ = (−dir)·(−r̂).
     let phase = medium.phase.eval(dir.dot(ends.dir));
