@@ -422,10 +422,21 @@ pub fn test_scene(width: u32, height: u32, spp: u32) -> (Value, Assets) {
                 }
             }
         ],
-        "background": [0.05, 0.05, 0.06]
+        "background": [0.05, 0.05, 0.06],
+        // The farm tests time kills and heartbeats against tile cost: keep the integrator out of
+        // them; `scattering_test_scene` puts it back for the bit-identity test.
+        "integrator": { "single_scatter": { "method": "none" } }
     });
     let floor = "v -4 0 -4\nv 4 0 -4\nv 4 0 4\nv -4 0 4\nf 1 3 2\nf 1 4 3\n";
     let assets = Assets::from([("meshes/floor.obj".to_string(), floor.as_bytes().to_vec())]);
+    (scene, assets)
+}
+
+/// [`test_scene`] with the interval single-scattering integrator switched on, so a farm render
+/// is compared bit for bit with every layer non-trivial.
+pub fn scattering_test_scene(width: u32, height: u32, spp: u32) -> (Value, Assets) {
+    let (mut scene, assets) = test_scene(width, height, spp);
+    scene["integrator"]["single_scatter"]["method"] = serde_json::json!("interval");
     (scene, assets)
 }
 
