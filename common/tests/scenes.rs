@@ -58,7 +58,7 @@ fn the_examples_have_the_documented_sizes() {
         let scene = load(name);
         assert_eq!(
             (scene.film.width, scene.film.height, scene.film.spp),
-            (320, 240, 4),
+            (160, 120, 2),
             "{name}"
         );
         assert_eq!(
