@@ -31,7 +31,6 @@ pub fn path_contribution(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::medium::PhaseFunction;
     use crate::render::scatter::ground_truth::gauss_legendre;
     use crate::render::scatter::patch::TrianglePatch;
     use crate::render::scatter::solve::{NewtonSettings, solve_at, straight_line_guess};
@@ -54,20 +53,7 @@ mod tests {
             [DVec3::Z; 3],
         )
         .unwrap();
-        let start = DVec3::new(0.3, -0.2, -0.05);
-        let end = DVec3::new(0.1, 0.1, -3.0);
-        let length = (end - start).length();
-        let ends = PathEnds {
-            origin: start,
-            dir: (end - start) / length,
-            light: DVec3::new(1.7, 0.9, 1.3),
-            eta: 1.5,
-        };
-        let medium = Medium {
-            sigma_s: DVec3::splat(0.5),
-            sigma_t: DVec3::splat(0.7),
-            phase: PhaseFunction::HenyeyGreenstein { g: 0.3 },
-        };
+        let (ends, length, medium) = super::super::ground_truth::flat_plane_integral_setup();
         let settings = NewtonSettings::new(1e-14, (0.0, length));
         let integrand = |t: f64| {
             let guess = straight_line_guess(&patch, &ends, t).unwrap();

@@ -194,6 +194,27 @@ pub fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
     rule
 }
 
+/// The physics.md §1.5 end-to-end flat-plane configuration: the camera segment
+/// (0.3, −0.2, −0.05) → (0.1, 0.1, −3.0) as path ends with its length, the light at
+/// (1.7, 0.9, 1.3), η = 1.5, and the medium σ_s = 0.5, σ_t = 0.7, HG g = 0.3.
+pub fn flat_plane_integral_setup() -> (PathEnds, f64, crate::render::medium::Medium) {
+    let start = DVec3::new(0.3, -0.2, -0.05);
+    let end = DVec3::new(0.1, 0.1, -3.0);
+    let length = (end - start).length();
+    let ends = PathEnds {
+        origin: start,
+        dir: (end - start) / length,
+        light: DVec3::new(1.7, 0.9, 1.3),
+        eta: 1.5,
+    };
+    let medium = crate::render::medium::Medium {
+        sigma_s: DVec3::splat(0.5),
+        sigma_t: DVec3::splat(0.7),
+        phase: crate::render::medium::PhaseFunction::HenyeyGreenstein { g: 0.3 },
+    };
+    (ends, length, medium)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

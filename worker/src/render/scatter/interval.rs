@@ -857,26 +857,10 @@ pub fn interval_contribution(
 mod tests {
     use super::*;
     use crate::render::medium::PhaseFunction;
-    use crate::render::scatter::ground_truth::{SplitMix, flat_refraction_point};
+    use crate::render::scatter::ground_truth::{
+        SplitMix, flat_plane_integral_setup, flat_refraction_point,
+    };
     use crate::render::scatter::solve::solve_all_at;
-
-    fn end_to_end_setup() -> (PathEnds, f64, Medium) {
-        let start = DVec3::new(0.3, -0.2, -0.05);
-        let end = DVec3::new(0.1, 0.1, -3.0);
-        let length = (end - start).length();
-        let ends = PathEnds {
-            origin: start,
-            dir: (end - start) / length,
-            light: DVec3::new(1.7, 0.9, 1.3),
-            eta: 1.5,
-        };
-        let medium = Medium {
-            sigma_s: DVec3::splat(0.5),
-            sigma_t: DVec3::splat(0.7),
-            phase: PhaseFunction::HenyeyGreenstein { g: 0.3 },
-        };
-        (ends, length, medium)
-    }
 
     /// Sums the contributions of every interval with K midpoint samples, divided by η² to compare
     /// with the end-to-end formula of physics.md §1.5 (see `contribution`).
@@ -922,7 +906,7 @@ mod tests {
             [DVec3::Z; 3],
         )
         .unwrap();
-        let (ends, length, medium) = end_to_end_setup();
+        let (ends, length, medium) = flat_plane_integral_setup();
         let truth = 6.6755876e-4;
         let mut previous_error = f64::INFINITY;
         let mut previous_value = 0.0;
