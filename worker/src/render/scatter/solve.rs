@@ -5,7 +5,8 @@
 //! point, a barycentric coordinate on an edge, or the position along the tangent while tracing
 //! the curve. All of these are affine 2-D slices of parameter space ([`Slice`]), so one damped
 //! Newton serves them all: the 3×2 sub-Jacobian is `J·[du dv]` and the step is
-//! `δ = −(J₂ᵀJ₂)⁻¹ J₂ᵀ f`.
+//! `δ = −(J₂ᵀJ₂)⁻¹ J₂ᵀ f`, taken on the scaled residual `‖h‖·f` (same zeros, well conditioned as
+//! η → 1; see [`Residual::scaled`]).
 
 use glam::DVec3;
 use spindle_common::stats::RenderStats;
@@ -23,7 +24,7 @@ pub const INSIDE_TOLERANCE: f64 = 1e-9;
 /// (physics.md §2.5 item 4), so their contribution vanishes and D is ill-conditioned.
 pub const MIN_COS_LIGHT: f64 = 1e-9;
 
-/// A solve that can no longer decrease ‖f‖ by any damped step is at the floating-point floor and
+/// A solve that can no longer decrease ‖g‖ = ‖h‖·‖f‖ by any damped step is at the floating-point floor and
 /// is accepted as converged if ‖f‖ is below this bound. The floor rises for configurations far
 /// from the origin relative to their size and as η → 1 (physics.md §2.5 items 2 and 6), where a
 /// requested tolerance tighter than the floor cannot be met.
@@ -107,10 +108,15 @@ pub struct Converged {
 /// Damped Gauss–Newton (pseudo-inverse) on one slice, from `start`. Returns the zero if found and
 /// the number of evaluations of f spent (for the statistics).
 ///
+/// The steps and their acceptance use the scaled residual `g = ‖h‖·f` and its Jacobian
+/// ([`Residual::scaled`]); convergence is still `‖f‖ ≤ tolerance`. On f itself, at η = 1 + 1e-6
+/// the fixed-t solve from a seed 1e-3 away crept and gave up after 60 evaluations; on g it
+/// converges as at any η, and for η ≥ 1.33 it takes slightly fewer evaluations than on f.
+///
 /// Damping: the barycentric part of a step is clamped to a bound that starts at 0.5, grows ×1.2
 /// per accepted step up to 1.5 and halves when backtracking was needed; a step that does not
-/// decrease ‖f‖ is halved twice, then Levenberg–Marquardt damped with growing λ. The solve aborts when a or b leaves (−1, 2), when
-/// `J₂ᵀJ₂` is singular, or after `max_evaluations`.
+/// decrease ‖g‖ is halved twice, then Levenberg–Marquardt damped with growing λ. The solve aborts
+/// when a or b leaves (−1, 2), when `J₂ᵀJ₂` is singular, or after `max_evaluations`.
 pub fn newton(
     patch: &TrianglePatch,
     ends: &PathEnds,
@@ -135,6 +141,7 @@ pub fn newton(
         return (None, evaluations);
     };
     let mut norm = r.f.length();
+    let mut merit = r.scaled().length();
     let mut step_max = STEP_MAX_START;
     loop {
         if norm <= settings.tolerance {
@@ -151,13 +158,14 @@ pub fn newton(
             return (None, evaluations);
         }
 
-        // The pseudo-inverse step δ = −(J₂ᵀJ₂)⁻¹ J₂ᵀ f ([H15] eq. 9); when it and its halvings
-        // fail to decrease ‖f‖ (far from the solution J₂ is nearly rank 1 and the step follows
+        // The pseudo-inverse step δ = −(J₂ᵀJ₂)⁻¹ J₂ᵀ g ([H15] eq. 9, on g = ‖h‖·f); when it and
+        // its halvings fail to decrease ‖g‖ (far from the solution J₂ is nearly rank 1 and the step follows
         // the weak direction), Levenberg–Marquardt damping turns it toward steepest descent.
-        let ju = r.apply(slice.du);
-        let jv = r.apply(slice.dv);
+        let g = r.scaled();
+        let ju = r.scaled_apply(slice.du);
+        let jv = r.scaled_apply(slice.dv);
         let (auu, auv, avv) = (ju.dot(ju), ju.dot(jv), jv.dot(jv));
-        let (gu, gv) = (ju.dot(r.f), jv.dot(r.f));
+        let (gu, gv) = (ju.dot(g), jv.dot(g));
         let trace = auu + avv;
         if !trace.is_finite() || trace <= 0.0 {
             return (None, evaluations);
@@ -201,27 +209,28 @@ pub fn newton(
 
             evaluations += 1;
             if let Some((x_new, r_new)) = eval(u + du, v + dv) {
-                let norm_new = r_new.f.length();
-                if norm_new < norm {
-                    accepted = Some((x_new, r_new, norm_new, du, dv));
+                let merit_new = r_new.scaled().length();
+                if merit_new < merit {
+                    accepted = Some((x_new, r_new, merit_new, du, dv));
                     break;
                 }
             }
         }
         match accepted {
-            Some((x_new, r_new, norm_new, du, dv)) => {
+            Some((x_new, r_new, merit_new, du, dv)) => {
                 u += du;
                 v += dv;
                 x = x_new;
                 r = r_new;
-                norm = norm_new;
+                norm = r.f.length();
+                merit = merit_new;
                 step_max = if attempt == 1 {
                     (step_max * 1.2).min(STEP_MAX_CAP)
                 } else {
                     step_max * 0.5
                 };
             }
-            // No attempt decreased ‖f‖: the floating-point floor, if ‖f‖ is already small.
+            // No attempt decreased ‖g‖: the floating-point floor, if ‖f‖ is already small.
             None if attempt > MAX_ATTEMPTS && norm <= STAGNATION_ACCEPT => {
                 return (
                     Some(Converged {

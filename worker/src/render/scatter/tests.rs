@@ -145,34 +145,67 @@ fn eta_one_matches_the_airlight_closed_form() {
     );
 }
 
-/// Continuity at η → 1 (issue 3): at η = 1 + 1e-6, solving refraction (point sampling, M = 512,
-/// 4 camera samples) matches the exact η = 1 straight path within 1e-4 relative (measured 7e-6),
-/// HG phase and absorption included. The interval method near η = 1 (η = 1 + 1e-4, K = 16)
-/// matches point sampling within 1e-4 (measured 7.5e-6). Known gap, not asserted here: the
-/// interval method's per-triangle interval search at η = 1 + 1e-6 itself loses about 13 % (see
-/// the issue notes).
+/// Continuity at η → 1 (issue 3), for `auto` (the interval method at η ≠ 1, here K = 16) against
+/// `auto` at η = 1 (the exact straight path, 4096 points, 4 camera samples), on the icosphere and
+/// the bumpy sphere, two segments each, HG phase and absorption included.
+///
+/// `single_scatter` carries the η² of physics.md eq. 1, which the camera path's `1/η²` cancels:
+/// what a pixel receives is `single_scatter/η²` (the entry Fresnel factor is below 3e-7 here), so
+/// that is what is compared with η = 1. Physics itself moves it by 0.1–0.4·(η − 1) on these
+/// segments, which point sampling (an independent solver) shows too, so:
+/// * for η − 1 ∈ {1e-6, 1e-5, 1e-4} it is within 1e-4 of η = 1 (measured at most 2.5e-5, 2.2e-5
+///   and 5.4e-5, mostly the noise of the η = 1 estimate);
+/// * for η − 1 ∈ {1e-6, 1e-5, 1e-4, 1e-3}, `single_scatter` itself is within 1e-4 of point
+///   sampling at the same η (M = 4096, 4 camera samples; measured at most 2.6e-5). At η = 1.001
+///   it lies 1.1e-4 to 3.8e-4 from η = 1: the physical change, not asserted.
+///
+/// Before the Newton solver stepped on the scaled residual `‖h‖·f` (`Residual::scaled`), the
+/// fixed-t solves at η = 1 + 1e-6 failed from their seeds and the interval method was 13.6 % low
+/// here; before the trace ended arcs on a range end at the triangle's plane
+/// (`range_end_exit` in `interval`), one arc was counted twice at η = 1.001 (14.5 % high).
 #[test]
 fn eta_near_one_matches_eta_one() {
-    let exact = Setup::sphere(1.0).with(json!({"samples_per_segment": 4096}));
-    let solved = json!({"method": "point_sampling", "samples_per_segment": 512});
-    let near = Setup::sphere(1.0 + 1e-6).with(solved.clone());
-    let (scene_exact, scene_near) = (exact.build(), near.build());
-    let seg = segment(&scene_exact, ORIGIN, DIR);
-    let (truth, _) = estimate(&scene_exact, &seg, 4);
-    let (value, stats) = estimate(&scene_near, &seg, 4);
-    let err = relative_error(value, truth);
-    println!("eta = 1 + 1e-6: {value} vs eta = 1: {truth}: relative error {err:.2e}; {stats:?}");
-    assert!(err < 1e-4, "relative error {err}");
-
-    let points = Setup::sphere(1.0 + 1e-4).with(solved).build();
-    let intervals = Setup::sphere(1.0 + 1e-4)
-        .with(json!({"method": "interval", "k": 16}))
-        .build();
-    let (by_points, _) = estimate(&points, &seg, 4);
-    let (by_intervals, _) = estimate(&intervals, &seg, 1);
-    let err = relative_error(by_intervals, by_points);
-    println!("eta = 1 + 1e-4: interval {by_intervals} vs point sampling {by_points}: {err:.2e}");
-    assert!(err < 1e-4, "relative error {err}");
+    for (name, setup) in [
+        ("icosphere", Setup::sphere(1.0)),
+        ("bumpy sphere", Setup::bumpy(1.0)),
+    ] {
+        let exact = setup
+            .clone()
+            .with(json!({"samples_per_segment": 4096}))
+            .build();
+        assert!(describe_plan(&exact)[0].contains("straight_line"));
+        for (origin, dir) in [
+            (ORIGIN, DIR),
+            (DVec3::new(0.2, -0.5, 0.3), DVec3::new(-0.3, 1.0, 0.2)),
+        ] {
+            let seg = segment(&exact, origin, dir);
+            let (truth, _) = estimate(&exact, &seg, 4);
+            for eta in [1.0 + 1e-6, 1.0 + 1e-5, 1.0 + 1e-4, 1.001] {
+                let at_eta = |settings: Value| {
+                    let mut s = setup.clone().with(settings);
+                    s.eta = eta;
+                    s.build()
+                };
+                let near = at_eta(json!({"k": 16}));
+                assert!(describe_plan(&near)[0].contains("interval"));
+                let points =
+                    at_eta(json!({"method": "point_sampling", "samples_per_segment": 4096}));
+                let (by_points, _) = estimate(&points, &seg, 4);
+                let (value, _) = estimate(&near, &seg, 1);
+                let to_eta_one = relative_error(value / (eta * eta), truth);
+                let to_points = relative_error(value, by_points);
+                println!(
+                    "{name}, eta = 1 + {:.0e}: interval/eta² vs eta = 1: {to_eta_one:.2e}, \
+                     interval vs point sampling: {to_points:.2e}",
+                    eta - 1.0
+                );
+                if eta < 1.0002 {
+                    assert!(to_eta_one < 1e-4, "{name}, eta {eta}: {to_eta_one}");
+                }
+                assert!(to_points < 1e-4, "{name}, eta {eta}: {to_points}");
+            }
+        }
+    }
 }
 
 /// The interval method against the brute-force reference over a whole segment through a small
