@@ -280,9 +280,14 @@ pub struct Pruning {
     /// The spindle test on BVH nodes.
     #[serde(default = "yes")]
     pub spindle: bool,
-    /// The half-vector / shading-normal cone test per triangle.
+    /// The half-vector / shading-normal cone test, on BVH nodes (the cone of every normal below
+    /// the node) and per triangle.
     #[serde(default = "yes")]
     pub cone: bool,
+    /// Geometric sidedness per triangle: the light in front of the triangle's plane and the
+    /// camera point behind it (physics.md §2.3), which also trims the t-range.
+    #[serde(default = "yes")]
+    pub plane: bool,
 }
 
 fn yes() -> bool {
@@ -294,6 +299,7 @@ impl Default for Pruning {
         Pruning {
             spindle: true,
             cone: true,
+            plane: true,
         }
     }
 }

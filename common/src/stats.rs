@@ -18,6 +18,8 @@ pub struct RenderStats {
     pub bvh_nodes_visited: u64,
     /// BVH nodes culled by the spindle test.
     pub nodes_culled_spindle: u64,
+    /// BVH nodes culled by the half-vector / normal cone test (on the cone of every normal below).
+    pub nodes_culled_cone: u64,
     /// Triangles reached by the descent and tested.
     pub triangles_tested: u64,
     /// Triangles culled by plane sidedness (the t-range from the triangle's plane was empty).
@@ -46,6 +48,7 @@ impl RenderStats {
             camera_segments,
             bvh_nodes_visited,
             nodes_culled_spindle,
+            nodes_culled_cone,
             triangles_tested,
             triangles_culled_plane,
             triangles_culled_cone,
@@ -60,6 +63,7 @@ impl RenderStats {
         self.camera_segments += camera_segments;
         self.bvh_nodes_visited += bvh_nodes_visited;
         self.nodes_culled_spindle += nodes_culled_spindle;
+        self.nodes_culled_cone += nodes_culled_cone;
         self.triangles_tested += triangles_tested;
         self.triangles_culled_plane += triangles_culled_plane;
         self.triangles_culled_cone += triangles_culled_cone;
@@ -72,12 +76,13 @@ impl RenderStats {
     }
 
     /// `(name, value)` pairs in a fixed order, for logs and EXR header attributes.
-    pub fn entries(&self) -> [(&'static str, u64); 13] {
+    pub fn entries(&self) -> [(&'static str, u64); 14] {
         [
             ("camera_rays", self.camera_rays),
             ("camera_segments", self.camera_segments),
             ("bvh_nodes_visited", self.bvh_nodes_visited),
             ("nodes_culled_spindle", self.nodes_culled_spindle),
+            ("nodes_culled_cone", self.nodes_culled_cone),
             ("triangles_tested", self.triangles_tested),
             ("triangles_culled_plane", self.triangles_culled_plane),
             ("triangles_culled_cone", self.triangles_culled_cone),

@@ -593,7 +593,8 @@ mod tests {
             s.pruning,
             Pruning {
                 spindle: true,
-                cone: true
+                cone: true,
+                plane: true,
             }
         );
     }

@@ -1,8 +1,8 @@
 //! Study 4: what each pruning stage of the hierarchical descent culls, and what it saves.
 //!
 //! One scene (a bumpy sphere, so normals vary and the cone test has work to do) rendered with
-//! the interval method four times: both stages on, the spindle test off, the cone test off, both
-//! off. The renderer's counters give each stage's cull fraction; the time with a stage off is
+//! the interval method five times: every stage on, each of the spindle, cone and plane stages
+//! off alone, all off. The renderer's counters give each stage's cull fraction; the time with a stage off is
 //! what it saves. Pruning is conservative, so the images should agree: the relative RMSE against
 //! the all-on image is printed as a check.
 
@@ -47,10 +47,11 @@ pub fn run(report: &mut Report, runner: &Runner, args: &BenchArgs) -> Result<()>
         model.name, model.triangles
     ));
     let configs = [
-        ("all on", true, true),
-        ("spindle off", false, true),
-        ("cone off", true, false),
-        ("both off", false, false),
+        ("all on", true, true, true),
+        ("spindle off", false, true, true),
+        ("cone off", true, false, true),
+        ("plane off", true, true, false),
+        ("all off", false, false, false),
     ];
     let mut table = Table::new(&[
         "config",
@@ -59,6 +60,8 @@ pub fn run(report: &mut Report, runner: &Runner, args: &BenchArgs) -> Result<()>
         "bvh_nodes_visited",
         "nodes_culled_spindle",
         "spindle_cull_fraction",
+        "nodes_culled_cone",
+        "node_cone_cull_fraction",
         "triangles_tested",
         "triangles_culled_plane",
         "plane_cull_fraction",
@@ -68,10 +71,14 @@ pub fn run(report: &mut Report, runner: &Runner, args: &BenchArgs) -> Result<()>
         "rel_rmse_vs_all_on",
     ]);
     let mut base: Option<(f64, Vec<f32>)> = None;
-    for (name, spindle, cone) in configs {
+    for (name, spindle, cone, plane) in configs {
         let single = SingleScatter {
             method: ScatterMethod::Interval,
-            pruning: Pruning { spindle, cone },
+            pruning: Pruning {
+                spindle,
+                cone,
+                plane,
+            },
             ..SingleScatter::default()
         };
         if name == "all on" {
@@ -93,6 +100,8 @@ pub fn run(report: &mut Report, runner: &Runner, args: &BenchArgs) -> Result<()>
             s.bvh_nodes_visited.to_string(),
             s.nodes_culled_spindle.to_string(),
             fraction(s.nodes_culled_spindle, s.bvh_nodes_visited),
+            s.nodes_culled_cone.to_string(),
+            fraction(s.nodes_culled_cone, s.bvh_nodes_visited),
             s.triangles_tested.to_string(),
             s.triangles_culled_plane.to_string(),
             fraction(s.triangles_culled_plane, s.triangles_tested),
@@ -102,6 +111,8 @@ pub fn run(report: &mut Report, runner: &Runner, args: &BenchArgs) -> Result<()>
             relative_rmse(&image, base_image).map_or("n/a".into(), sig),
         ]);
     }
-    report.line("cull fractions: spindle = nodes culled / nodes visited; plane and cone = triangles culled / triangles tested");
+    report.line(
+        "cull fractions: spindle and node cone = nodes culled / nodes visited; plane and cone = triangles culled / triangles tested",
+    );
     report.table("pruning", &table)
 }

@@ -21,6 +21,7 @@ use crate::render::medium::Medium;
 use crate::render::mesh::{MeshReport, TriangleMesh};
 use crate::render::obj::parse_obj;
 use crate::render::procedural::{MAX_SUBDIVISIONS, bumpy_sphere, icosphere};
+use crate::render::scatter::bounds::PruneBounds;
 use crate::render::transform::Transform;
 
 /// The bytes of each `obj` shape's file, keyed by the shape's `path` string exactly as written
@@ -87,6 +88,9 @@ pub struct Object {
     pub mesh: TriangleMesh,
     /// A BVH over this object's triangles alone; hits report indices into `mesh`.
     pub bvh: Bvh,
+    /// Spheres, normal cones and planes of its triangles and BVH nodes, for the single-scattering
+    /// descent.
+    pub bounds: PruneBounds,
     pub material: Material,
     pub report: MeshReport,
 }
@@ -394,9 +398,11 @@ fn build_object(
     let triangles: Vec<[DVec3; 3]> = (0..mesh.triangle_count())
         .map(|t| mesh.corners(t))
         .collect();
+    let bvh = Bvh::build(&triangles);
     Ok(Object {
         name,
-        bvh: Bvh::build(&triangles),
+        bounds: PruneBounds::build(&mesh, &bvh),
+        bvh,
         report: mesh.report(),
         mesh,
         material,

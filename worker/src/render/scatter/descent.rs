@@ -1,17 +1,20 @@
 //! The hierarchical descent of an object's BVH that yields the triangles worth solving on
 //! ([H15] §3.2.4): start at the root, keep a node only if its bounding sphere passes the spindle
-//! test, and put each triangle of a surviving leaf through the half-vector / normal cone test,
-//! which also trims its `t`-range.
+//! test and the cone of every normal below it passes the half-vector / normal cone test (which
+//! also trims the node's `t`-range, inherited by its children); then put each triangle of a
+//! surviving leaf through geometric sidedness (light in front of its plane, camera point behind,
+//! physics.md §2.3) and its own cone test, both of which trim its `t`-range further.
 //!
-//! Both tests are conservative (see `prune`), so the descent never loses a solution; each can be
-//! switched off (`integrator.single_scatter.pruning`) to measure what it saves. The counters go to
-//! `RenderStats`: nodes visited, nodes culled by the spindle test, triangles tested, triangles
-//! culled by the cone test.
+//! Every test is conservative (see `prune`), so the descent never loses a solution; each stage
+//! can be switched off (`integrator.single_scatter.pruning`) to measure what it saves. The
+//! counters go to `RenderStats`: nodes visited, nodes culled by the spindle and by the cone test,
+//! triangles tested, triangles culled by the plane and by the cone test.
 
 use spindle_common::scene::Pruning;
 use spindle_common::stats::RenderStats;
 
-use super::prune::{BoundingSphere, NormalCone, SegmentQuery};
+use super::bounds::TrianglePlane;
+use super::prune::SegmentQuery;
 use crate::render::scene::Object;
 
 /// A triangle of the object that may hold refraction points, and the `t`-range where it may.
@@ -23,9 +26,10 @@ pub struct Candidate {
     pub t_hi: f64,
 }
 
-/// Reusable traversal stack (one per `single_scatter` call, so the hot loop does not allocate).
+/// Reusable traversal stack of `(node, t_lo, t_hi)` (one per `single_scatter` call, so the hot
+/// loop does not allocate).
 #[derive(Debug, Default)]
-pub struct DescentStack(Vec<u32>);
+pub struct DescentStack(Vec<(u32, f64, f64)>);
 
 /// Calls `visit` for every candidate triangle of `object` for the query (segment range and light
 /// point), with the pruning stages `pruning` enabled.
@@ -37,49 +41,93 @@ pub fn for_each_candidate(
     stats: &mut RenderStats,
     mut visit: impl FnMut(Candidate, &mut RenderStats),
 ) {
-    if object.bvh.nodes().is_empty() {
+    if object.bvh.nodes().is_empty() || query.t_lo > query.t_hi {
         return;
     }
     let stack = &mut stack.0;
     stack.clear();
-    stack.push(0);
-    while let Some(node) = stack.pop() {
+    stack.push((0, query.t_lo, query.t_hi));
+    while let Some((node, t_lo, t_hi)) = stack.pop() {
         stats.bvh_nodes_visited += 1;
-        if pruning.spindle {
-            let (lo, hi) = object.bvh.node_bounds(node);
-            if !query.spindle_may_contain(BoundingSphere::of_box(lo, hi)) {
-                stats.nodes_culled_spindle += 1;
-                continue;
+        let mut range = query.with_range(t_lo, t_hi);
+        let bounds = object.bounds.node(node);
+        if pruning.spindle && !range.spindle_may_contain(bounds.sphere) {
+            stats.nodes_culled_spindle += 1;
+            continue;
+        }
+        if pruning.cone
+            && let Some(cone) = bounds.cone
+        {
+            match range.cone_trim(bounds.sphere, cone) {
+                Some((lo, hi)) => range = range.with_range(lo, hi),
+                None => {
+                    stats.nodes_culled_cone += 1;
+                    continue;
+                }
             }
         }
-        if let Some(children) = object.bvh.children(node) {
-            stack.extend_from_slice(&children);
+        if let Some([left, right]) = object.bvh.children(node) {
+            stack.push((right, range.t_lo, range.t_hi));
+            stack.push((left, range.t_lo, range.t_hi));
             continue;
         }
         for triangle in object.bvh.leaf_triangles(node) {
             stats.triangles_tested += 1;
-            let mut candidate = Candidate {
-                triangle,
-                t_lo: query.t_lo,
-                t_hi: query.t_hi,
-            };
-            if pruning.cone {
-                let index = triangle as usize;
-                let cone = NormalCone::of_normals(object.mesh.corner_normals(index));
-                if let Some(cone) = cone {
-                    let sphere = BoundingSphere::of_triangle(object.mesh.corners(index));
-                    match query.cone_trim(sphere, cone) {
-                        Some((t_lo, t_hi)) => (candidate.t_lo, candidate.t_hi) = (t_lo, t_hi),
-                        None => {
-                            stats.triangles_culled_cone += 1;
-                            continue;
-                        }
+            let bounds = object.bounds.triangle(triangle);
+            let mut candidate = range;
+            if pruning.plane
+                && let Some(plane) = bounds.plane
+            {
+                match behind_plane(&candidate, &plane) {
+                    Some((lo, hi)) => candidate = candidate.with_range(lo, hi),
+                    None => {
+                        stats.triangles_culled_plane += 1;
+                        continue;
                     }
                 }
             }
-            visit(candidate, stats);
+            if pruning.cone
+                && let Some(cone) = bounds.cone
+            {
+                match candidate.cone_trim(bounds.sphere, cone) {
+                    Some((lo, hi)) => candidate = candidate.with_range(lo, hi),
+                    None => {
+                        stats.triangles_culled_cone += 1;
+                        continue;
+                    }
+                }
+            }
+            visit(
+                Candidate {
+                    triangle,
+                    t_lo: candidate.t_lo,
+                    t_hi: candidate.t_hi,
+                },
+                stats,
+            );
         }
     }
+}
+
+/// Geometric sidedness (physics.md §2.3): None if the light is not strictly in front of the
+/// plane or no `V(t)` of the range is behind it, else the part of the range where `V(t)` is
+/// behind or on it (closed, so a solution exactly at the bound is kept; the per-triangle search
+/// pulls such bounds in by its own margin).
+fn behind_plane(query: &SegmentQuery, plane: &TrianglePlane) -> Option<(f64, f64)> {
+    if plane.distance(query.light) <= 0.0 {
+        return None;
+    }
+    let height = plane.distance(query.origin);
+    let rate = plane.normal.dot(query.dir);
+    let (mut lo, mut hi) = (query.t_lo, query.t_hi);
+    if rate > 0.0 {
+        hi = hi.min(-height / rate);
+    } else if rate < 0.0 {
+        lo = lo.max(-height / rate);
+    } else if height > 0.0 {
+        return None;
+    }
+    (lo <= hi).then_some((lo, hi))
 }
 
 #[cfg(test)]
@@ -90,6 +138,7 @@ mod tests {
     use crate::render::bvh::Bvh;
     use crate::render::medium::{Medium, PhaseFunction};
     use crate::render::procedural::bumpy_sphere;
+    use crate::render::scatter::bounds::PruneBounds;
     use crate::render::scene::{Dielectric, Material};
 
     fn object() -> Object {
@@ -98,9 +147,11 @@ mod tests {
             .map(|i| mesh.corners(i))
             .collect();
         let report = mesh.report();
+        let bvh = Bvh::build(&triangles);
         Object {
             name: "objects[0]".into(),
-            bvh: Bvh::build(&triangles),
+            bounds: PruneBounds::build(&mesh, &bvh),
+            bvh,
             mesh,
             material: Material::Dielectric(Dielectric {
                 eta: 1.5,
@@ -219,6 +270,7 @@ mod tests {
         let off = Pruning {
             spindle: false,
             cone: false,
+            plane: false,
         };
         let mut seen = vec![0; object.mesh.triangle_count()];
         let mut stats = RenderStats::default();

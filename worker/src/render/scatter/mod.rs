@@ -17,6 +17,7 @@
 //! medium is denser); the light is outside; the shading normal points outward, toward the light;
 //! the camera segment is `V(t) = origin + t·dir` with `dir` a unit vector, so t is a distance.
 
+pub mod bounds;
 pub mod connect;
 pub mod contribution;
 pub mod descent;

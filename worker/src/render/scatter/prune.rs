@@ -71,6 +71,9 @@ impl BoundingSphere {
 pub struct NormalCone {
     pub axis: DVec3,
     pub half_angle: f64,
+    /// `cos` and `sin` of `half_angle + ANGLE_MARGIN`, for the cone test's comparison.
+    cos_wide: f64,
+    sin_wide: f64,
 }
 
 impl NormalCone {
@@ -83,8 +86,19 @@ impl NormalCone {
             .iter()
             .map(|ni| angle_between(axis, *ni))
             .fold(0.0_f64, f64::max);
-        // A cone is convex (contains the normalised convex combinations) only below a hemisphere.
-        (half_angle < FRAC_PI_2 - 1e-3).then_some(NormalCone { axis, half_angle })
+        NormalCone::convex(axis, half_angle)
+    }
+
+    /// The cone `(axis, half_angle)` if it is narrower than a hemisphere, so that it is convex:
+    /// it then contains every normalised convex combination of directions it contains.
+    pub fn convex(axis: DVec3, half_angle: f64) -> Option<Self> {
+        let wide = half_angle + ANGLE_MARGIN;
+        (half_angle < FRAC_PI_2 - 1e-3).then_some(NormalCone {
+            axis,
+            half_angle,
+            cos_wide: wide.cos(),
+            sin_wide: wide.sin(),
+        })
     }
 }
 
@@ -106,6 +120,15 @@ pub struct SegmentQuery {
 }
 
 impl SegmentQuery {
+    /// The same query over `[t_lo, t_hi]`.
+    pub fn with_range(&self, t_lo: f64, t_hi: f64) -> Self {
+        SegmentQuery {
+            t_lo,
+            t_hi,
+            ..*self
+        }
+    }
+
     /// `V(t)`.
     pub fn point(&self, t: f64) -> DVec3 {
         self.origin + t * self.dir
@@ -197,27 +220,37 @@ impl SegmentQuery {
         if !(d_light > r && d_piece > r) {
             return true;
         }
-        // Bound ω_L by the cone (û_L, θ_L), and ω_V by a cone around the direction to the piece's
-        // middle, widened by the angle half the piece subtends from the sphere (at most its
-        // length over the distance).
-        let theta_l = (r / d_light).asin();
+        // Bound ω_L by the cone around û_L of half-angle asin(r/d_L), and ω_V by the cone around
+        // the direction to the piece's middle, of half-angle asin(r/d) plus the angle half the
+        // piece subtends from the sphere (at most its length over the distance). The tips of unit
+        // vectors in a cone of half-angle θ lie within the chord 2 sin(θ/2) of the axis's tip, and
+        // chords add along a sum of angles (the chord is the sphere's straight-line metric), so
+        // the tip of H = η ω_V + ω_L lies within η r_V + r_L of η û_V + û_L. No trigonometry:
+        // this test runs for most nodes and triangles of every query.
         let middle = 0.5 * (a + b);
-        let sweep = (0.5 * (hi - lo) / d_piece).min(std::f64::consts::PI);
-        let theta_v = ((r / d_piece).asin() + sweep).min(std::f64::consts::PI);
-        // Tips of the unit vectors lie within chords 2 sin(θ/2) of the axes' tips, so the tip of
-        // H = η ω_V + ω_L lies within η r_V + r_L of η û_V + û_L.
-        let chord_v = 2.0 * (0.5 * theta_v).sin();
-        let chord_l = 2.0 * (0.5 * theta_l).sin();
+        let sweep = 0.5 * (hi - lo) / d_piece;
+        let chord_v = chord_of_asin(r / d_piece) + sweep.min(2.0);
+        let chord_l = chord_of_asin(r / d_light);
         let h_axis = self.eta * middle.normalize() + to_light / d_light;
         let h_len = h_axis.length();
         let spread = self.eta * chord_v + chord_l;
-        if spread >= h_len {
+        if !(spread < h_len) {
             return true;
         }
-        let theta_h = (spread / h_len).asin();
-        // A solution needs Ĥ = −N̂s: −û_H within θ_N + θ_H of the normal cone's axis.
-        angle_between(-h_axis, normals.axis) <= normals.half_angle + theta_h + ANGLE_MARGIN
+        // A solution needs Ĥ = −N̂s: the angle between −û_H and the normal cone's axis at most
+        // θ_N + θ_H, with sin θ_H = spread/|H|. Both are below π/2, so compare cosines.
+        let sin_h = spread / h_len;
+        let cos_h = (1.0 - sin_h * sin_h).sqrt();
+        let cos_limit = normals.cos_wide * cos_h - normals.sin_wide * sin_h;
+        -h_axis.dot(normals.axis) >= cos_limit * h_len
     }
+}
+
+/// `2 sin(asin(s)/2)`, the chord of the cone of half-angle `asin(s)`, `s ∈ [0, 1]`, without
+/// trigonometry: `√(2(1 − √(1 − s²)))`, written without cancellation for small `s`.
+fn chord_of_asin(s: f64) -> f64 {
+    let s2 = s * s;
+    (2.0 * s2 / (1.0 + (1.0 - s2).max(0.0).sqrt())).sqrt()
 }
 
 /// The angle between two nonzero vectors, accurate near 0 and π.

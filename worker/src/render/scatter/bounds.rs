@@ -1,0 +1,203 @@
+//! What the pruning tests read, computed once per object instead of once per query: for every
+//! triangle its bounding sphere, the cone of its vertex normals and its plane; for every BVH node
+//! the sphere around its box and the cone of every vertex normal below it.
+//!
+//! The node cones let the half-vector / normal cone test ([H15] §3.2.4) cull whole subtrees, not
+//! only single triangles: the test is sound for any set of surface points inside a sphere whose
+//! shading normals lie in a convex cone, and a node's cone contains its triangles' cones. Without
+//! them, the spindle test alone passes most of a convex object's tree (for η = 1.5 a refracted ray
+//! may turn by up to 48°), and every triangle below paid for its own cone.
+
+use glam::DVec3;
+
+use super::prune::{BoundingSphere, NormalCone};
+use crate::render::bvh::Bvh;
+use crate::render::mesh::TriangleMesh;
+
+/// The plane of a triangle: unit geometric normal `n` (the winding's, outward on a closed mesh)
+/// and offset `n·p0`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrianglePlane {
+    pub normal: DVec3,
+    pub offset: f64,
+}
+
+impl TrianglePlane {
+    /// None for a degenerate triangle (no normal).
+    pub fn of_triangle(p: [DVec3; 3]) -> Option<Self> {
+        let normal = (p[1] - p[0]).cross(p[2] - p[0]).try_normalize()?;
+        Some(TrianglePlane {
+            normal,
+            offset: normal.dot(p[0]),
+        })
+    }
+
+    /// Signed distance of `x` from the plane, positive on the normal's side.
+    pub fn distance(&self, x: DVec3) -> f64 {
+        self.normal.dot(x) - self.offset
+    }
+}
+
+/// Per-triangle pruning data.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TriangleBounds {
+    pub sphere: BoundingSphere,
+    /// None when the vertex normals spread too far for a useful (convex) cone.
+    pub cone: Option<NormalCone>,
+    /// None for a degenerate triangle.
+    pub plane: Option<TrianglePlane>,
+}
+
+/// Per-node pruning data.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NodeBounds {
+    pub sphere: BoundingSphere,
+    /// The cone holding every vertex normal of every triangle below the node; None when they
+    /// spread over a hemisphere or more.
+    pub cone: Option<NormalCone>,
+}
+
+/// The pruning data of one object, indexed like its mesh's triangles and its BVH's nodes.
+#[derive(Debug, Clone, Default)]
+pub struct PruneBounds {
+    triangles: Vec<TriangleBounds>,
+    nodes: Vec<NodeBounds>,
+}
+
+impl PruneBounds {
+    /// Computes the bounds of every triangle of `mesh` and every node of `bvh` (built over it).
+    pub fn build(mesh: &TriangleMesh, bvh: &Bvh) -> Self {
+        let triangles: Vec<TriangleBounds> = (0..mesh.triangle_count())
+            .map(|i| {
+                let corners = mesh.corners(i);
+                TriangleBounds {
+                    sphere: BoundingSphere::of_triangle(corners),
+                    cone: NormalCone::of_normals(mesh.corner_normals(i)),
+                    plane: TrianglePlane::of_triangle(corners),
+                }
+            })
+            .collect();
+        let node_count = bvh.nodes().len();
+        let mut cones: Vec<Option<NormalCone>> = vec![None; node_count];
+        // Children come after their parent in obvhs's layout, so a reverse sweep sees children
+        // first; the order is checked, not assumed (`merged` of an unvisited child is None).
+        let mut done = vec![false; node_count];
+        for node in (0..node_count as u32).rev() {
+            let cone = match bvh.children(node) {
+                Some([l, r]) if done[l as usize] && done[r as usize] => {
+                    match (cones[l as usize], cones[r as usize]) {
+                        (Some(x), Some(y)) => merge(x, y),
+                        _ => None,
+                    }
+                }
+                Some(_) => None,
+                None => leaf_cone(mesh, &bvh.leaf_triangles(node).collect::<Vec<_>>()),
+            };
+            cones[node as usize] = cone;
+            done[node as usize] = true;
+        }
+        let nodes = (0..node_count as u32)
+            .map(|node| {
+                let (lo, hi) = bvh.node_bounds(node);
+                NodeBounds {
+                    sphere: BoundingSphere::of_box(lo, hi),
+                    cone: cones[node as usize],
+                }
+            })
+            .collect();
+        PruneBounds { triangles, nodes }
+    }
+
+    pub fn triangle(&self, index: u32) -> &TriangleBounds {
+        &self.triangles[index as usize]
+    }
+
+    pub fn node(&self, index: u32) -> &NodeBounds {
+        &self.nodes[index as usize]
+    }
+}
+
+/// The cone of every vertex normal of the given triangles: axis along their normalised sum,
+/// half-angle the largest angle from it.
+fn leaf_cone(mesh: &TriangleMesh, triangles: &[u32]) -> Option<NormalCone> {
+    let normals = || {
+        triangles
+            .iter()
+            .flat_map(|&t| mesh.corner_normals(t as usize))
+    };
+    let axis = normals().sum::<DVec3>().try_normalize()?;
+    let half_angle = normals()
+        .map(|n| angle_between(axis, n))
+        .fold(0.0_f64, f64::max);
+    NormalCone::convex(axis, half_angle)
+}
+
+/// A cone containing two cones: axis along the sum of the axes, half-angle the farthest reach of
+/// either from it.
+fn merge(x: NormalCone, y: NormalCone) -> Option<NormalCone> {
+    let axis = (x.axis + y.axis).try_normalize()?;
+    let half_angle = (angle_between(axis, x.axis) + x.half_angle)
+        .max(angle_between(axis, y.axis) + y.half_angle);
+    NormalCone::convex(axis, half_angle)
+}
+
+fn angle_between(x: DVec3, y: DVec3) -> f64 {
+    x.cross(y).length().atan2(x.dot(y))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::procedural::bumpy_sphere;
+
+    /// Every node's cone holds every vertex normal below it (to rounding), and every node's sphere
+    /// every vertex: checked by walking each node's subtree.
+    #[test]
+    fn node_bounds_contain_everything_below() {
+        let mesh = bumpy_sphere(1.0, 3, 0.15, 2.0, 7);
+        let triangles: Vec<[DVec3; 3]> = (0..mesh.triangle_count())
+            .map(|i| mesh.corners(i))
+            .collect();
+        let bvh = Bvh::build(&triangles);
+        let bounds = PruneBounds::build(&mesh, &bvh);
+        let mut with_cone = 0;
+        for node in 0..bvh.nodes().len() as u32 {
+            let b = bounds.node(node);
+            let mut below = Vec::new();
+            let mut stack = vec![node];
+            while let Some(n) = stack.pop() {
+                match bvh.children(n) {
+                    Some(c) => stack.extend_from_slice(&c),
+                    None => below.extend(bvh.leaf_triangles(n)),
+                }
+            }
+            for &t in &below {
+                for p in mesh.corners(t as usize) {
+                    assert!(p.distance(b.sphere.center) <= b.sphere.radius);
+                }
+                if let Some(cone) = b.cone {
+                    for n in mesh.corner_normals(t as usize) {
+                        assert!(angle_between(cone.axis, n) <= cone.half_angle + 1e-12);
+                    }
+                }
+            }
+            with_cone += usize::from(b.cone.is_some());
+        }
+        // The root of a sphere has no convex cone; most small nodes do.
+        assert!(bounds.node(0).cone.is_none());
+        assert!(with_cone > bvh.nodes().len() / 2, "{with_cone}");
+    }
+
+    #[test]
+    fn triangle_plane_is_the_triangle_plane() {
+        let p = [
+            DVec3::new(1.0, 0.0, 2.0),
+            DVec3::new(0.0, 1.0, 2.0),
+            DVec3::new(0.0, 0.0, 2.0),
+        ];
+        let plane = TrianglePlane::of_triangle(p).unwrap();
+        assert_eq!(plane.normal, DVec3::new(0.0, 0.0, 1.0));
+        assert!((plane.distance(DVec3::new(5.0, -3.0, 2.5)) - 0.5).abs() < 1e-15);
+        assert!(TrianglePlane::of_triangle([p[0], p[0], p[1]]).is_none());
+    }
+}
