@@ -23,9 +23,15 @@ pub struct TrianglePlane {
 }
 
 impl TrianglePlane {
-    /// None for a degenerate triangle (no normal).
-    pub fn of_triangle(p: [DVec3; 3]) -> Option<Self> {
-        let normal = (p[1] - p[0]).cross(p[2] - p[0]).try_normalize()?;
+    /// The plane of the triangle `p`, its normal oriented like the vertex normals `n` (as
+    /// `TrianglePatch` orients it). None for a degenerate triangle (no normal).
+    pub fn of_triangle(p: [DVec3; 3], n: [DVec3; 3]) -> Option<Self> {
+        let winding = (p[1] - p[0]).cross(p[2] - p[0]).try_normalize()?;
+        let normal = if (n[0] + n[1] + n[2]).dot(winding) < 0.0 {
+            -winding
+        } else {
+            winding
+        };
         Some(TrianglePlane {
             normal,
             offset: normal.dot(p[0]),
@@ -36,6 +42,29 @@ impl TrianglePlane {
     pub fn distance(&self, x: DVec3) -> f64 {
         self.normal.dot(x) - self.offset
     }
+}
+
+/// Bounds `(lo, hi)` on `n(a, b)·(x − P(a, b))` over the triangle `P(a, b)` with vertices `p`
+/// and linearly interpolated (unnormalised) normal `n(a, b)` from the vertex normals `n`: the
+/// sign of how the point `x` faces the shading normal. The function is a product of two linear
+/// functions, a quadratic whose Bernstein coefficients on the triangle are `n_i·(x − p_i)` at
+/// the vertices and `(n_i·(x − p_j) + n_j·(x − p_i))/2` on the edges; it lies between their
+/// smallest and largest.
+pub fn facing_bounds(p: [DVec3; 3], n: [DVec3; 3], x: DVec3) -> (f64, f64) {
+    let d = [x - p[0], x - p[1], x - p[2]];
+    let coefficients = [
+        n[0].dot(d[0]),
+        n[1].dot(d[1]),
+        n[2].dot(d[2]),
+        0.5 * (n[0].dot(d[1]) + n[1].dot(d[0])),
+        0.5 * (n[1].dot(d[2]) + n[2].dot(d[1])),
+        0.5 * (n[2].dot(d[0]) + n[0].dot(d[2])),
+    ];
+    coefficients
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &c| {
+            (lo.min(c), hi.max(c))
+        })
 }
 
 /// Per-triangle pruning data.
@@ -69,11 +98,11 @@ impl PruneBounds {
     pub fn build(mesh: &TriangleMesh, bvh: &Bvh) -> Self {
         let triangles: Vec<TriangleBounds> = (0..mesh.triangle_count())
             .map(|i| {
-                let corners = mesh.corners(i);
+                let (corners, normals) = (mesh.corners(i), mesh.corner_normals(i));
                 TriangleBounds {
                     sphere: BoundingSphere::of_triangle(corners),
-                    cone: NormalCone::of_normals(mesh.corner_normals(i)),
-                    plane: TrianglePlane::of_triangle(corners),
+                    cone: NormalCone::of_normals(normals),
+                    plane: TrianglePlane::of_triangle(corners, normals),
                 }
             })
             .collect();
@@ -195,9 +224,53 @@ mod tests {
             DVec3::new(0.0, 1.0, 2.0),
             DVec3::new(0.0, 0.0, 2.0),
         ];
-        let plane = TrianglePlane::of_triangle(p).unwrap();
+        let up = [DVec3::Z; 3];
+        let plane = TrianglePlane::of_triangle(p, up).unwrap();
         assert_eq!(plane.normal, DVec3::new(0.0, 0.0, 1.0));
         assert!((plane.distance(DVec3::new(5.0, -3.0, 2.5)) - 0.5).abs() < 1e-15);
-        assert!(TrianglePlane::of_triangle([p[0], p[0], p[1]]).is_none());
+        // Oriented by the vertex normals, whatever the winding.
+        let flipped = TrianglePlane::of_triangle([p[1], p[0], p[2]], up).unwrap();
+        assert_eq!(flipped.normal, DVec3::new(0.0, 0.0, 1.0));
+        let down = TrianglePlane::of_triangle(p, [-DVec3::Z; 3]).unwrap();
+        assert_eq!(down.normal, DVec3::new(0.0, 0.0, -1.0));
+        assert!(TrianglePlane::of_triangle([p[0], p[0], p[1]], up).is_none());
+    }
+
+    /// The facing bounds hold `n(a, b)·(x − P(a, b))` at 20,000 random points of random curved
+    /// triangles, and are attained at the vertices when the function is linear (flat normals).
+    #[test]
+    fn facing_bounds_bound_the_facing_function() {
+        let mut state = 5u64;
+        let mut next = || {
+            state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+            let mut z = state;
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let mut vec = |scale: f64| DVec3::new(next(), next(), next()) * scale;
+        for _ in 0..200 {
+            let p = [vec(1.0), vec(1.0), vec(1.0)];
+            let n = [
+                (DVec3::Z + vec(0.8)).normalize(),
+                (DVec3::Z + vec(0.8)).normalize(),
+                (DVec3::Z + vec(0.8)).normalize(),
+            ];
+            let x = vec(3.0);
+            let (lo, hi) = facing_bounds(p, n, x);
+            for i in 0..100 {
+                let (mut a, mut b) = (f64::from(i % 10) / 9.0, f64::from(i / 10) / 9.0);
+                if a + b > 1.0 {
+                    (a, b) = (1.0 - a, 1.0 - b);
+                }
+                let point = p[0] + a * (p[1] - p[0]) + b * (p[2] - p[0]);
+                let normal = n[0] + a * (n[1] - n[0]) + b * (n[2] - n[0]);
+                let q = normal.dot(x - point);
+                assert!(lo - 1e-12 <= q && q <= hi + 1e-12, "{lo} <= {q} <= {hi}");
+            }
+        }
+        let p = [DVec3::ZERO, DVec3::X, DVec3::Y];
+        let (lo, hi) = facing_bounds(p, [DVec3::Z; 3], DVec3::new(0.2, 0.3, 1.5));
+        assert_eq!((lo, hi), (1.5, 1.5));
     }
 }

@@ -2,8 +2,9 @@
 //! ([H15] §3.2.4): start at the root, keep a node only if its bounding sphere passes the spindle
 //! test and the cone of every normal below it passes the half-vector / normal cone test (which
 //! also trims the node's `t`-range, inherited by its children); then put each triangle of a
-//! surviving leaf through geometric sidedness (light in front of its plane, camera point behind,
-//! physics.md §2.3) and its own cone test, both of which trim its `t`-range further.
+//! surviving leaf through sidedness (light in front of its plane and of some shading normal on
+//! it, camera point behind the plane: physics.md §2.3, §2.5 item 3) and its own cone test on that
+//! trimmed range.
 //!
 //! Every test is conservative (see `prune`), so the descent never loses a solution; each stage
 //! can be switched off (`integrator.single_scatter.pruning`) to measure what it saves. The
@@ -13,11 +14,12 @@
 use spindle_common::scene::Pruning;
 use spindle_common::stats::RenderStats;
 
-use super::bounds::TrianglePlane;
+use super::bounds::{TrianglePlane, facing_bounds};
 use super::prune::SegmentQuery;
 use crate::render::scene::Object;
 
-/// A triangle of the object that may hold refraction points, and the `t`-range where it may.
+/// A triangle of the object that may hold refraction points, and the `t`-range to search on it:
+/// the query's, cut by the triangle's plane.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Candidate {
     /// Index of the triangle in the object's mesh.
@@ -44,6 +46,7 @@ pub fn for_each_candidate(
     if object.bvh.nodes().is_empty() || query.t_lo > query.t_hi {
         return;
     }
+    let mesh = &object.mesh;
     let stack = &mut stack.0;
     stack.clear();
     stack.push((0, query.t_lo, query.t_hi));
@@ -74,34 +77,43 @@ pub fn for_each_candidate(
         for triangle in object.bvh.leaf_triangles(node) {
             stats.triangles_tested += 1;
             let bounds = object.bounds.triangle(triangle);
-            let mut candidate = range;
+            // Two ranges: `search`, handed to the candidate, is the query's range cut by the
+            // plane only; `culling` is that cut by the cone tests too, and serves only to cull.
+            // (The per-triangle search is cheaper from range ends on the plane or the segment's
+            // ends than from the cone tests' ends, where the curve does not reach and the range-
+            // end solves fail: 4x the Newton iterations on a 20k-triangle sphere.)
+            let mut search = (query.t_lo, query.t_hi);
             if pruning.plane
                 && let Some(plane) = bounds.plane
             {
-                match behind_plane(&candidate, &plane) {
-                    Some((lo, hi)) => candidate = candidate.with_range(lo, hi),
-                    None => {
+                let index = triangle as usize;
+                let faces_light = || {
+                    let (corners, normals) = (mesh.corners(index), mesh.corner_normals(index));
+                    facing_bounds(corners, normals, query.light).1 > 0.0
+                };
+                match behind_plane(query, &plane) {
+                    Some(r) if r.0.max(range.t_lo) <= r.1.min(range.t_hi) && faces_light() => {
+                        search = r;
+                    }
+                    _ => {
                         stats.triangles_culled_plane += 1;
                         continue;
                     }
                 }
             }
+            let culling = range.with_range(search.0.max(range.t_lo), search.1.min(range.t_hi));
             if pruning.cone
                 && let Some(cone) = bounds.cone
+                && !culling.cone_may_contain(bounds.sphere, cone)
             {
-                match candidate.cone_trim(bounds.sphere, cone) {
-                    Some((lo, hi)) => candidate = candidate.with_range(lo, hi),
-                    None => {
-                        stats.triangles_culled_cone += 1;
-                        continue;
-                    }
-                }
+                stats.triangles_culled_cone += 1;
+                continue;
             }
             visit(
                 Candidate {
                     triangle,
-                    t_lo: candidate.t_lo,
-                    t_hi: candidate.t_hi,
+                    t_lo: search.0,
+                    t_hi: search.1,
                 },
                 stats,
             );

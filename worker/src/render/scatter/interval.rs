@@ -36,7 +36,7 @@ use super::ends::PathEnds;
 use super::patch::TrianglePatch;
 use super::small_list::SmallList;
 use super::solve::{
-    NewtonSettings, RefractionPath, Slice, is_physical, newton, plane_piercing,
+    MIN_COS_LIGHT, NewtonSettings, RefractionPath, Slice, is_physical, newton, plane_piercing,
     plane_refraction_guess, solve_at,
 };
 use crate::render::Rgb;
@@ -234,7 +234,15 @@ pub fn triangle_intervals(
         tracer.range_end_points(side, t, &mut boundary, stats);
     }
     let mut seeds = InteriorSeeds::default();
-    for (line, l) in INTERIOR_LINES.iter().enumerate() {
+    // Arcs end inside the triangle only where the light grazes the shading normal: where it
+    // faces every shading normal of the triangle, no arc misses the boundary and the lines are
+    // not scanned (they are most of the per-triangle cost).
+    let lines = if patch.min_facing_cosine(ends.light) > 2.0 * MIN_COS_LIGHT {
+        &[][..]
+    } else {
+        &INTERIOR_LINES[..]
+    };
+    for (line, l) in lines.iter().enumerate() {
         line_crossings(patch, ends, l, range, tolerance, stats, |x, r| {
             if is_physical(patch, r)
                 && let Some(g) = r.tangent()

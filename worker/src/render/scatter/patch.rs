@@ -6,6 +6,7 @@
 
 use glam::DVec3;
 
+use super::bounds::facing_bounds;
 use super::ends::PathEnds;
 
 /// Relative threshold below which a triangle is degenerate: `‖E1×E2‖ < DEGENERATE · max edge²`,
@@ -238,6 +239,18 @@ impl TrianglePatch {
     #[inline]
     pub fn contains(&self, a: f64, b: f64, tolerance: f64) -> bool {
         a >= -tolerance && b >= -tolerance && a + b <= 1.0 + tolerance
+    }
+
+    /// A lower bound on the cosine `c = N̂s·(x − P)/‖x − P‖` between the shading normal and the
+    /// direction to `x`, over the whole triangle (see [`facing_bounds`]; `‖n(a, b)‖ ≤ 1` and
+    /// `‖x − P‖` is at most its largest value at a vertex). Negative when `x` may be behind
+    /// some shading normal.
+    pub fn min_facing_cosine(&self, x: DVec3) -> f64 {
+        let p = [self.p0, self.p0 + self.e1, self.p0 + self.e2];
+        let n = [self.n0, self.n0 + self.dn1, self.n0 + self.dn2];
+        let (lo, _) = facing_bounds(p, n, x);
+        let farthest = p.iter().map(|q| q.distance(x)).fold(0.0_f64, f64::max);
+        if lo > 0.0 { lo / farthest } else { lo }
     }
 
     /// Signed distance of `x` from the triangle's plane, positive on the side of `normal_g`.

@@ -175,6 +175,13 @@ impl SegmentQuery {
         Some((first.0, last.1))
     }
 
+    /// The cone test without the trimming: `false` only if no `t` of the range can have a
+    /// solution on the triangle (half the work of [`cone_trim`](Self::cone_trim) when kept).
+    pub fn cone_may_contain(&self, sphere: BoundingSphere, normals: NormalCone) -> bool {
+        self.first_kept(sphere, normals, self.t_lo, self.t_hi, CONE_DEPTH, true)
+            .is_some()
+    }
+
     /// The first piece (from the low end if `from_low`, else from the high end) of a bisection of
     /// `[lo, hi]` down to `depth` levels that the piece test keeps.
     fn first_kept(
