@@ -168,9 +168,10 @@ impl SegmentQuery {
     /// its bounding sphere and normal cone: `None` if no `t` of the range can have a solution on
     /// the triangle, else the trimmed `[t_lo, t_hi]` that holds every solution.
     pub fn cone_trim(&self, sphere: BoundingSphere, normals: NormalCone) -> Option<(f64, f64)> {
-        let first = self.first_kept(sphere, normals, self.t_lo, self.t_hi, CONE_DEPTH, true)?;
-        let last = self
-            .first_kept(sphere, normals, self.t_lo, self.t_hi, CONE_DEPTH, false)
+        let test = ConeTest::new(self, sphere, normals);
+        let first = test.first_kept(self.t_lo, self.t_hi, CONE_DEPTH, true)?;
+        let last = test
+            .first_kept(self.t_lo, self.t_hi, CONE_DEPTH, false)
             .unwrap_or(first);
         Some((first.0, last.1))
     }
@@ -178,22 +179,41 @@ impl SegmentQuery {
     /// The cone test without the trimming: `false` only if no `t` of the range can have a
     /// solution on the triangle (half the work of [`cone_trim`](Self::cone_trim) when kept).
     pub fn cone_may_contain(&self, sphere: BoundingSphere, normals: NormalCone) -> bool {
-        self.first_kept(sphere, normals, self.t_lo, self.t_hi, CONE_DEPTH, true)
+        ConeTest::new(self, sphere, normals)
+            .first_kept(self.t_lo, self.t_hi, CONE_DEPTH, true)
             .is_some()
+    }
+}
+
+/// The cone test of one query against one sphere and normal cone, with what does not depend on
+/// the piece of the segment (the light's cone) computed once.
+struct ConeTest<'a> {
+    query: &'a SegmentQuery,
+    sphere: BoundingSphere,
+    normals: NormalCone,
+    /// `û_L`, the direction from the sphere's centre to the light, and the chord of the cone of
+    /// `ω_L`; None when the light is inside the sphere (nothing is bounded).
+    light: Option<(DVec3, f64)>,
+}
+
+impl<'a> ConeTest<'a> {
+    fn new(query: &'a SegmentQuery, sphere: BoundingSphere, normals: NormalCone) -> Self {
+        let to_light = query.light - sphere.center;
+        let d_light = to_light.length();
+        let light = (d_light > sphere.radius)
+            .then(|| (to_light / d_light, chord_of_asin(sphere.radius / d_light)));
+        ConeTest {
+            query,
+            sphere,
+            normals,
+            light,
+        }
     }
 
     /// The first piece (from the low end if `from_low`, else from the high end) of a bisection of
     /// `[lo, hi]` down to `depth` levels that the piece test keeps.
-    fn first_kept(
-        &self,
-        sphere: BoundingSphere,
-        normals: NormalCone,
-        lo: f64,
-        hi: f64,
-        depth: u32,
-        from_low: bool,
-    ) -> Option<(f64, f64)> {
-        if !self.piece_may_contain(sphere, normals, lo, hi) {
+    fn first_kept(&self, lo: f64, hi: f64, depth: u32, from_low: bool) -> Option<(f64, f64)> {
+        if !self.piece_may_contain(lo, hi) {
             return None;
         }
         if depth == 0 || hi <= lo {
@@ -205,26 +225,21 @@ impl SegmentQuery {
         } else {
             ((mid, hi), (lo, mid))
         };
-        self.first_kept(sphere, normals, first.0, first.1, depth - 1, from_low)
-            .or_else(|| self.first_kept(sphere, normals, second.0, second.1, depth - 1, from_low))
+        self.first_kept(first.0, first.1, depth - 1, from_low)
+            .or_else(|| self.first_kept(second.0, second.1, depth - 1, from_low))
     }
 
     /// The cone test on the piece `[lo, hi]` of the segment: `false` only if no `V(t)` of the
     /// piece can see a solution on the triangle.
-    fn piece_may_contain(
-        &self,
-        sphere: BoundingSphere,
-        normals: NormalCone,
-        lo: f64,
-        hi: f64,
-    ) -> bool {
-        let (c, r) = (sphere.center, sphere.radius);
-        let a = self.point(lo) - c;
-        let b = self.point(hi) - c;
-        let to_light = self.light - c;
-        let d_light = to_light.length();
+    fn piece_may_contain(&self, lo: f64, hi: f64) -> bool {
+        let Some((light_axis, chord_l)) = self.light else {
+            return true;
+        };
+        let (c, r) = (self.sphere.center, self.sphere.radius);
+        let a = self.query.point(lo) - c;
+        let b = self.query.point(hi) - c;
         let d_piece = distance_to_segment(a, b);
-        if !(d_light > r && d_piece > r) {
+        if !(d_piece > r) {
             return true;
         }
         // Bound ω_L by the cone around û_L of half-angle asin(r/d_L), and ω_V by the cone around
@@ -234,13 +249,13 @@ impl SegmentQuery {
         // chords add along a sum of angles (the chord is the sphere's straight-line metric), so
         // the tip of H = η ω_V + ω_L lies within η r_V + r_L of η û_V + û_L. No trigonometry:
         // this test runs for most nodes and triangles of every query.
+        let eta = self.query.eta;
         let middle = 0.5 * (a + b);
         let sweep = 0.5 * (hi - lo) / d_piece;
         let chord_v = chord_of_asin(r / d_piece) + sweep.min(2.0);
-        let chord_l = chord_of_asin(r / d_light);
-        let h_axis = self.eta * middle.normalize() + to_light / d_light;
+        let h_axis = eta * middle.normalize() + light_axis;
         let h_len = h_axis.length();
-        let spread = self.eta * chord_v + chord_l;
+        let spread = eta * chord_v + chord_l;
         if !(spread < h_len) {
             return true;
         }
@@ -248,8 +263,8 @@ impl SegmentQuery {
         // θ_N + θ_H, with sin θ_H = spread/|H|. Both are below π/2, so compare cosines.
         let sin_h = spread / h_len;
         let cos_h = (1.0 - sin_h * sin_h).sqrt();
-        let cos_limit = normals.cos_wide * cos_h - normals.sin_wide * sin_h;
-        -h_axis.dot(normals.axis) >= cos_limit * h_len
+        let cos_limit = self.normals.cos_wide * cos_h - self.normals.sin_wide * sin_h;
+        -h_axis.dot(self.normals.axis) >= cos_limit * h_len
     }
 }
 
