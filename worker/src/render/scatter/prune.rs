@@ -239,7 +239,8 @@ impl<'a> ConeTest<'a> {
         let a = self.query.point(lo) - c;
         let b = self.query.point(hi) - c;
         let d_piece = distance_to_segment(a, b);
-        if !(d_piece > r) {
+        // (NaN keeps the piece: nothing is bounded.)
+        if d_piece.is_nan() || d_piece <= r {
             return true;
         }
         // Bound ω_L by the cone around û_L of half-angle asin(r/d_L), and ω_V by the cone around
@@ -256,7 +257,7 @@ impl<'a> ConeTest<'a> {
         let h_axis = eta * middle.normalize() + light_axis;
         let h_len = h_axis.length();
         let spread = eta * chord_v + chord_l;
-        if !(spread < h_len) {
+        if spread.is_nan() || h_len.is_nan() || spread >= h_len {
             return true;
         }
         // A solution needs Ĥ = −N̂s: the angle between −û_H and the normal cone's axis at most
