@@ -38,6 +38,11 @@ pub struct RenderStats {
     pub samples: u64,
     /// Shadow rays traced.
     pub shadow_rays: u64,
+    /// Values the single-scattering search dropped because a fixed-capacity per-triangle list
+    /// was full (interval method: edge crossings, boundary and interior seed points, points of a
+    /// traced arc, intervals; reference: solutions per camera point). Light may be missing
+    /// wherever this is not 0; the capacities are sized so that the example scenes never drop.
+    pub capacity_drops: u64,
 }
 
 impl RenderStats {
@@ -58,6 +63,7 @@ impl RenderStats {
             folds,
             samples,
             shadow_rays,
+            capacity_drops,
         } = other;
         self.camera_rays += camera_rays;
         self.camera_segments += camera_segments;
@@ -73,10 +79,11 @@ impl RenderStats {
         self.folds += folds;
         self.samples += samples;
         self.shadow_rays += shadow_rays;
+        self.capacity_drops += capacity_drops;
     }
 
     /// `(name, value)` pairs in a fixed order, for logs and EXR header attributes.
-    pub fn entries(&self) -> [(&'static str, u64); 14] {
+    pub fn entries(&self) -> [(&'static str, u64); 15] {
         [
             ("camera_rays", self.camera_rays),
             ("camera_segments", self.camera_segments),
@@ -92,6 +99,7 @@ impl RenderStats {
             ("folds", self.folds),
             ("samples", self.samples),
             ("shadow_rays", self.shadow_rays),
+            ("capacity_drops", self.capacity_drops),
         ]
     }
 }

@@ -222,7 +222,8 @@ pub fn line_crossings(
 }
 
 /// Appends to `out` every crossing of the curve with `edge` at `t ∈ t_range` (beyond the list's
-/// capacity they are dropped). Newton evaluations and failures go to `stats`.
+/// capacity they are dropped, and counted in `stats.capacity_drops`). Newton evaluations and
+/// failures go to `stats`.
 pub fn edge_crossings<const N: usize>(
     patch: &TrianglePatch,
     ends: &PathEnds,
@@ -232,6 +233,7 @@ pub fn edge_crossings<const N: usize>(
     out: &mut SmallList<Crossing, N>,
     stats: &mut RenderStats,
 ) {
+    let mut dropped = 0;
     line_crossings(
         patch,
         ends,
@@ -239,18 +241,20 @@ pub fn edge_crossings<const N: usize>(
         t_range,
         tolerance,
         stats,
-        |x, r| push_crossing(out, patch, edge, x, r),
+        |x, r| push_crossing(out, patch, edge, x, r, &mut dropped),
     );
+    stats.capacity_drops += dropped;
 }
 
 /// Adds a crossing unless it is not a physical path, a duplicate of one already found, or has no
-/// usable tangent.
+/// usable tangent; counts it in `dropped` if the list is full.
 fn push_crossing<const N: usize>(
     out: &mut SmallList<Crossing, N>,
     patch: &TrianglePatch,
     edge: Edge,
     x: [f64; 3],
     r: &Residual,
+    dropped: &mut u64,
 ) {
     if !is_physical(patch, r) {
         return;
@@ -266,7 +270,7 @@ fn push_crossing<const N: usize>(
             && (c.x[2] - x[2]).abs() <= 1e-9
     });
     if !duplicate {
-        out.push(Crossing { edge, x, g, bound });
+        out.push_or_count(Crossing { edge, x, g, bound }, dropped);
     }
 }
 

@@ -42,12 +42,20 @@ use super::solve::{
 use crate::render::Rgb;
 use crate::render::medium::Medium;
 
-/// At most this many monotone branches per triangle (more are dropped).
+/// At most this many monotone branches per triangle (more are dropped, and counted in
+/// `RenderStats::capacity_drops`).
 pub const MAX_INTERVALS: usize = 8;
 /// Seeds stored per interval.
 const MAX_SEEDS: usize = 8;
-/// Continuation steps per traced arc.
+/// Points kept per traced arc. A longer arc is thinned (see [`push_node`]), so this bounds memory,
+/// not the arc's length.
 const MAX_TRACE: usize = 96;
+/// Accepted continuation steps per traced arc. Arcs that run along t much farther than the
+/// triangle's size take many steps (on the bumpy-sphere example a small triangle's arc spanned 14
+/// triangle sizes of t, about 95 steps at [`STEP_MAX`]); 1024 steps cover 150 sizes.
+const MAX_STEPS: usize = 1024;
+/// Points per monotone branch: an arc's points and the fold points at both of its ends.
+const MAX_BRANCH: usize = MAX_TRACE + 2;
 /// Continuation step bounds, in barycentric units (t is scaled by the triangle's size).
 const STEP_START: f64 = 0.05;
 const STEP_MAX: f64 = 0.15;
@@ -223,12 +231,13 @@ pub fn triangle_intervals(
     }
     let mut boundary: SmallList<Boundary, 16> = SmallList::default();
     for c in crossings.iter() {
-        boundary.push(Boundary {
+        let point = Boundary {
             side: Side::Edge(c.edge),
             x: c.x,
             g: c.g,
             consumed: false,
-        });
+        };
+        boundary.push_or_count(point, &mut stats.capacity_drops);
     }
     for (side, t) in [(Side::RangeLow, range.0), (Side::RangeHigh, range.1)] {
         tracer.range_end_points(side, t, &mut boundary, stats);
@@ -243,18 +252,21 @@ pub fn triangle_intervals(
         &INTERIOR_LINES[..]
     };
     for (line, l) in lines.iter().enumerate() {
+        let mut dropped = 0;
         line_crossings(patch, ends, l, range, tolerance, stats, |x, r| {
             if is_physical(patch, r)
                 && let Some(g) = r.tangent()
             {
-                seeds.push(InteriorSeed {
+                let seed = InteriorSeed {
                     line,
                     x,
                     g,
                     consumed: false,
-                });
+                };
+                seeds.push_or_count(seed, &mut dropped);
             }
         });
+        stats.capacity_drops += dropped;
     }
 
     // Trace each arc from its entry, split it at folds, and emit its monotone branches.
@@ -278,10 +290,11 @@ pub fn triangle_intervals(
         }
         let sigma = inward.signum();
         let mut arc: SmallList<Node, MAX_TRACE> = SmallList::default();
-        arc.push(Node {
+        let entry = Node {
             x: b.x,
             g_t: b.g[0],
-        });
+        };
+        arc.push_or_count(entry, &mut stats.capacity_drops);
         if let Some(exit) = tracer.trace(b.x, b.g, sigma, &mut arc, &mut seeds, stats) {
             // The exit is another boundary point: do not trace the arc again from there.
             for other in 0..boundary.len() {
@@ -313,21 +326,39 @@ pub fn triangle_intervals(
         let mut forward: SmallList<Node, MAX_TRACE> = SmallList::default();
         tracer.trace(seed.x, seed.g, 1.0, &mut forward, &mut seeds, stats);
         let mut arc: SmallList<Node, MAX_TRACE> = SmallList::default();
-        for i in (0..backward.len()).rev() {
-            if let Some(&n) = backward.get(i) {
-                arc.push(n);
-            }
-        }
-        arc.push(Node {
+        let middle = Node {
             x: seed.x,
             g_t: seed.g[0],
-        });
-        for n in forward.iter() {
-            arc.push(*n);
+        };
+        let halves = (0..backward.len()).rev().filter_map(|i| backward.get(i));
+        for &n in halves.chain([&middle]).chain(forward.iter()) {
+            push_node(&mut arc, n, stats);
         }
         tracer.emit_branches(&arc, 1.0, &mut intervals, stats);
     }
     intervals
+}
+
+/// Appends `node` to a traced arc; a full arc is first thinned to every other point, keeping both
+/// ends and both points around every sign change of `g_t` (a fold between them is located from
+/// that pair). Only where the thinning frees nothing is the node dropped and counted.
+fn push_node(arc: &mut SmallList<Node, MAX_TRACE>, node: Node, stats: &mut RenderStats) {
+    if arc.len() == MAX_TRACE {
+        let g_sign = |i: usize| arc.get(i).map(|n| n.g_t.signum());
+        let last = arc.len() - 1;
+        let mut thinned: SmallList<Node, MAX_TRACE> = SmallList::default();
+        for (i, n) in arc.iter().enumerate() {
+            let at_fold = !n.g_t.is_finite()
+                || (i > 0 && g_sign(i - 1) != g_sign(i))
+                || (i < last && g_sign(i + 1) != g_sign(i));
+            if i % 2 == 0 || i == last || at_fold {
+                // Fewer points than before: there is room.
+                thinned.push_or_count(*n, &mut stats.capacity_drops);
+            }
+        }
+        *arc = thinned;
+    }
+    arc.push_or_count(node, &mut stats.capacity_drops);
 }
 
 /// The fixed data of one triangle's search.
@@ -360,18 +391,14 @@ impl Tracer<'_> {
         out: &mut SmallList<Boundary, 16>,
         stats: &mut RenderStats,
     ) {
-        let mut starts: SmallList<(f64, f64), 2> = SmallList::default();
-        if let Some(guess) = plane_refraction_guess(self.patch, self.ends, t) {
-            starts.push(guess);
-        }
-        if let Some((pierce, tangent)) = plane_piercing(self.patch, self.ends) {
+        let guess = plane_refraction_guess(self.patch, self.ends, t);
+        let near_piercing = plane_piercing(self.patch, self.ends).and_then(|(pierce, tangent)| {
             let dt = t - pierce[0];
-            if dt.abs() <= 1e-3 * self.scale {
-                starts.push((pierce[1] + dt * tangent[1], pierce[2] + dt * tangent[2]));
-            }
-        }
+            (dt.abs() <= 1e-3 * self.scale)
+                .then(|| (pierce[1] + dt * tangent[1], pierce[2] + dt * tangent[2]))
+        });
         let settings = NewtonSettings::new(self.tolerance, self.range);
-        for &start in starts.iter() {
+        for start in [guess, near_piercing].into_iter().flatten() {
             let (zero, spent) = newton(self.patch, self.ends, &Slice::fixed_t(t), start, &settings);
             stats.newton_iterations += spent as u64;
             let Some(z) = zero else { continue };
@@ -389,12 +416,13 @@ impl Tracer<'_> {
             if out.iter().any(|b| self.distance(b.x, z.x) < 1e-7) {
                 continue;
             }
-            out.push(Boundary {
+            let point = Boundary {
                 side,
                 x: z.x,
                 g,
                 consumed: false,
-            });
+            };
+            out.push_or_count(point, &mut stats.capacity_drops);
         }
     }
 
@@ -466,7 +494,7 @@ impl Tracer<'_> {
         stats: &mut RenderStats,
     ) -> Option<[f64; 3]> {
         let mut h = STEP_START;
-        while arc.len() < MAX_TRACE {
+        for _ in 0..MAX_STEPS {
             let dir = self.direction(g, sigma);
             let predicted = [0, 1, 2].map(|i| x[i] + h * dir[i]);
             let next = self.correct(predicted, dir, stats).filter(|(xn, gn, _)| {
@@ -480,7 +508,7 @@ impl Tracer<'_> {
             });
             let Some((xn, gn, physical)) = next else {
                 if let Some(end) = self.range_end_exit(x, predicted, h, stats) {
-                    arc.push(end);
+                    push_node(arc, end, stats);
                     return Some(end.x);
                 }
                 h *= 0.5;
@@ -498,15 +526,16 @@ impl Tracer<'_> {
                     .residual(self.ends, exit.0[0], exit.0[1], exit.0[2])
                     .is_some_and(|r| is_physical(self.patch, &r));
                 if exit_physical {
-                    arc.push(Node {
+                    let end = Node {
                         x: exit.0,
                         g_t: exit.1,
-                    });
+                    };
+                    push_node(arc, end, stats);
                     return Some(exit.0);
                 }
                 // The light grazes the shading normal before the arc reaches the boundary.
                 if let Some(end) = self.locate_grazing_end(x, exit.0, stats) {
-                    arc.push(end);
+                    push_node(arc, end, stats);
                 }
                 return None;
             }
@@ -514,16 +543,17 @@ impl Tracer<'_> {
                 // The light grazes the shading normal here (c_L → 0): the arc ends, with a
                 // vanishing contribution; locate the end by bisection along the chord.
                 if let Some(end) = self.locate_grazing_end(x, xn, stats) {
-                    arc.push(end);
+                    push_node(arc, end, stats);
                 }
                 return None;
             }
-            arc.push(Node { x: xn, g_t: gn[0] });
+            push_node(arc, Node { x: xn, g_t: gn[0] }, stats);
             x = xn;
             g = gn;
             h = (h * 1.5).min(STEP_MAX);
         }
-        stats.newton_failures += 1;
+        // The arc needs more steps than allowed: the rest of it is lost.
+        stats.capacity_drops += 1;
         None
     }
 
@@ -743,7 +773,7 @@ impl Tracer<'_> {
             return;
         }
         // Walk the arc, closing a branch at every sign change of dt/dλ = σ·g_t.
-        let mut branch: SmallList<[f64; 3], MAX_TRACE> = SmallList::default();
+        let mut branch: SmallList<[f64; 3], MAX_BRANCH> = SmallList::default();
         let mut sign = 0.0;
         let mut previous: Option<Node> = None;
         for node in nodes.iter().copied() {
@@ -758,10 +788,10 @@ impl Tracer<'_> {
                 {
                     let fold = self.locate_fold(prev, node, stats);
                     stats.folds += 1;
-                    branch.push(fold);
+                    branch.push_or_count(fold, &mut stats.capacity_drops);
                     self.push_branch(&branch, sign, sigma, out, stats);
                     branch = SmallList::default();
-                    branch.push(fold);
+                    branch.push_or_count(fold, &mut stats.capacity_drops);
                 }
             }
             if sign == 0.0 && node.g_t.is_finite() && s != 0.0 {
@@ -770,7 +800,7 @@ impl Tracer<'_> {
             if node.g_t.is_finite() && s != 0.0 {
                 sign = s;
             }
-            branch.push(node.x);
+            branch.push_or_count(node.x, &mut stats.capacity_drops);
             previous = Some(node);
         }
         self.push_branch(&branch, sign, sigma, out, stats);
@@ -779,7 +809,7 @@ impl Tracer<'_> {
     /// Turns the points of one monotone branch into an [`Interval`] with up to [`MAX_SEEDS`] seeds.
     fn push_branch(
         &self,
-        points: &SmallList<[f64; 3], MAX_TRACE>,
+        points: &SmallList<[f64; 3], MAX_BRANCH>,
         travel_sign: f64,
         sigma: f64,
         out: &mut Intervals,
@@ -818,14 +848,17 @@ impl Tracer<'_> {
         }
         // The label of the branch: sign of g_t of the continuously oriented tangent.
         let branch = travel_sign * sigma;
-        if out.push(Interval {
+        let interval = Interval {
             t_min,
             t_max,
             branch,
             seeds,
             seed_count,
-        }) {
+        };
+        if out.push(interval) {
             stats.intervals += 1;
+        } else {
+            stats.capacity_drops += 1;
         }
     }
 }
@@ -1188,6 +1221,82 @@ mod tests {
             );
             assert_eq!(stats.newton_failures, 0, "κ = {kappa}");
         }
+    }
+
+    /// A long arc: on a small triangle of the bumpy-sphere example (size 0.07) the camera segment
+    /// runs nearly along the refracted light, so the curve spans t ∈ [0, 1.01], 14 triangle sizes,
+    /// and tracing it takes about 95 steps — more than the 96 points an arc holds, which used to
+    /// cut it short (38 times in that example's render). Checked against brute force (all
+    /// solutions from 136 Newton starts) on 400 t: the number of intervals covering t equals the
+    /// number of solutions away from interval ends, and nothing is dropped.
+    #[test]
+    fn long_arcs_are_traced_whole() {
+        let p0 = DVec3::new(-0.3726392827737513, 1.0574013139550191, -0.962220619514952);
+        let e1 = DVec3::new(
+            0.0008103100026836674,
+            -0.07184916867728341,
+            0.00117317524282734,
+        );
+        let e2 = DVec3::new(
+            -0.06901367212571258,
+            -0.029830365423866967,
+            0.015092801269555811,
+        );
+        let n0 = DVec3::new(
+            -0.15636525681524466,
+            0.024853068527526116,
+            -0.987386566368952,
+        );
+        let dn1 = DVec3::new(
+            -0.012146921015825013,
+            -0.08486633549459792,
+            0.003515612579498395,
+        );
+        let dn2 = DVec3::new(
+            -0.12459703291182006,
+            -0.04782785920073724,
+            0.0279427948300216,
+        );
+        let patch = TrianglePatch::new([p0, p0 + e1, p0 + e2], [n0, n0 + dn1, n0 + dn2]).unwrap();
+        let ends = PathEnds {
+            origin: DVec3::new(
+                -0.40060511745610083,
+                1.0140384222579477,
+                -0.9555193279969362,
+            ),
+            dir: DVec3::new(0.4772277786308559, -0.07663035475610763, 0.8754321424490944),
+            light: DVec3::new(-2.258081222990139, 1.4585953021607494, -3.408587427081157),
+            eta: 1.4,
+        };
+        let length = 1.9926609981151144;
+        let mut stats = RenderStats::default();
+        let intervals = triangle_intervals(&patch, &ends, 0.0, length, 1e-10, &mut stats);
+        for iv in intervals.iter() {
+            println!("  [{:.6}, {:.6}] branch {}", iv.t_min, iv.t_max, iv.branch);
+        }
+        assert_eq!(stats.capacity_drops, 0);
+        let covered: f64 = intervals.iter().map(|iv| iv.t_max - iv.t_min).sum();
+        assert!(covered > 1.0, "covered {covered}");
+        let n = 400;
+        let h = length / n as f64;
+        let mut with_solutions = 0;
+        for i in 0..n {
+            let t = (i as f64 + 0.5) * h;
+            let near_end = intervals
+                .iter()
+                .any(|iv| (t - iv.t_min).abs() < h || (t - iv.t_max).abs() < h);
+            if near_end {
+                continue;
+            }
+            let covering = intervals
+                .iter()
+                .filter(|iv| t >= iv.t_min && t <= iv.t_max)
+                .count();
+            let brute = all_solutions(&patch, &ends, t).len();
+            with_solutions += (brute > 0) as usize;
+            assert_eq!(covering, brute, "t = {t}: {intervals:?}");
+        }
+        println!("{with_solutions} of {n} t have a solution; covered {covered:.6}");
     }
 
     /// Extremes: η from 1 + 1e-6 to 4, scenes scaled by 1e-4 and 1e4, on 40 seeded curved

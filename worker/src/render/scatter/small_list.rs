@@ -1,4 +1,8 @@
 //! A fixed-capacity list on the stack, so the per-triangle hot path does not allocate.
+//!
+//! A full list drops what is pushed: callers count every drop (`RenderStats::capacity_drops`,
+//! through [`SmallList::push_or_count`]), so a cap that is too small shows in the statistics
+//! instead of silently losing light.
 
 /// Up to `N` values of `T`; pushing beyond the capacity drops the value and reports it.
 #[derive(Debug, Clone, Copy)]
@@ -18,6 +22,7 @@ impl<T: Copy, const N: usize> Default for SmallList<T, N> {
 
 impl<T: Copy, const N: usize> SmallList<T, N> {
     /// Appends `value`; false (and the value is dropped) when the list is full.
+    #[must_use = "a full list drops the value: count the drop"]
     pub fn push(&mut self, value: T) -> bool {
         if self.len < N {
             self.items[self.len] = Some(value);
@@ -25,6 +30,13 @@ impl<T: Copy, const N: usize> SmallList<T, N> {
             true
         } else {
             false
+        }
+    }
+
+    /// Appends `value`, or adds 1 to `dropped` when the list is full (the value is dropped).
+    pub fn push_or_count(&mut self, value: T, dropped: &mut u64) {
+        if !self.push(value) {
+            *dropped += 1;
         }
     }
 
@@ -66,6 +78,9 @@ mod tests {
         assert!(list.is_empty());
         assert!(list.push(1) && list.push(2));
         assert!(!list.push(3));
+        let mut dropped = 0;
+        list.push_or_count(4, &mut dropped);
+        assert_eq!(dropped, 1);
         assert_eq!(list.iter().copied().collect::<Vec<_>>(), vec![1, 2]);
         assert_eq!(list.len(), 2);
         *list.get_mut(0).unwrap() = 5;

@@ -353,7 +353,8 @@ pub fn solve_at(
 
 /// Every valid refraction point inside the triangle at `V(t)`, by brute force: Newton from a
 /// triangular grid of `n(n+1)/2` starts over the triangle (`n` per side), deduplicated to 1e-8 in
-/// barycentric units, at most `N` (extra ones are dropped). For the reference estimator and for
+/// barycentric units, at most `N` (extra ones are dropped, and counted in
+/// `stats.capacity_drops`). For the reference estimator and for
 /// tests: it finds every branch the grid resolves, at about `n²/2` solves per call. Newton work
 /// and failures go to `stats`.
 pub fn solve_all_at<const N: usize>(
@@ -377,7 +378,7 @@ pub fn solve_all_at<const N: usize>(
                     .iter()
                     .any(|q| (q.a - p.a).abs() < 1e-8 && (q.b - p.b).abs() < 1e-8)
             {
-                found.push(p);
+                found.push_or_count(p, &mut stats.capacity_drops);
             }
         }
     }

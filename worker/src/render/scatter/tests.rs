@@ -96,7 +96,8 @@ fn segment(scene: &Scene, origin: DVec3, dir: DVec3) -> Segment {
     }
 }
 
-/// The mean of `single_scatter` over camera samples `0..samples` of one pixel.
+/// The mean of `single_scatter` over camera samples `0..samples` of one pixel. Every test scene
+/// must stay within the search's fixed capacities (`capacity_drops` = 0, asserted here).
 fn estimate(scene: &Scene, segment: &Segment, samples: u32) -> (Rgb, RenderStats) {
     let mut stats = RenderStats::default();
     let mut sum = Rgb::ZERO;
@@ -104,6 +105,7 @@ fn estimate(scene: &Scene, segment: &Segment, samples: u32) -> (Rgb, RenderStats
         let mut sampler = Sampler::new(17, 3, 5, s);
         sum += single_scatter(scene, segment, &mut sampler, &mut stats);
     }
+    assert_eq!(stats.capacity_drops, 0, "a capacity was hit: {stats:?}");
     (sum / f64::from(samples), stats)
 }
 

@@ -21,7 +21,8 @@ use crate::render::scatter::solve::{
 
 /// Grid of starts per side: the starts are `((i + 1/3)/G, (j + 1/3)/G)` for `i + j < G`.
 const START_GRID: usize = 5;
-/// Most distinct solutions kept per triangle and camera point.
+/// Most distinct solutions kept per triangle and camera point (more are dropped, and counted in
+/// `RenderStats::capacity_drops`).
 const MAX_SOLUTIONS: usize = 16;
 /// Barycentric distance under which two solutions are the same.
 const SAME_SOLUTION: f64 = 1e-7;
@@ -73,13 +74,17 @@ pub fn estimate(
                 let seen = found[..count]
                     .iter()
                     .any(|&(fa, fb)| (fa - a).abs() + (fb - b).abs() < SAME_SOLUTION);
-                if seen || count == MAX_SOLUTIONS {
+                if seen {
                     continue;
                 }
                 let Some(path) = RefractionPath::from_zero(&patch, &ends, t, a, b, &zero.residual)
                 else {
                     continue;
                 };
+                if count == MAX_SOLUTIONS {
+                    stats.capacity_drops += 1;
+                    continue;
+                }
                 stats.samples += 1;
                 found[count] = (a, b);
                 count += 1;
