@@ -202,8 +202,16 @@ struct Node {
     g_t: f64,
 }
 
+/// The Newton tolerance of the search itself (crossings, traced arcs, folds), whatever looser
+/// `newton_tolerance` the user sets: the structure must be exact for duplicates to be recognised
+/// and arcs paired (at 1e-3 the same crossing found from two brackets was kept twice and the
+/// image came out twice as bright); the user's tolerance then sets only how exactly each sample
+/// point is solved ([`for_each_sample`]).
+pub const SEARCH_TOLERANCE: f64 = 1e-10;
+
 /// The per-triangle search: finds every monotone branch of the curve inside the triangle within
-/// `[t_lo, t_hi]`. Newton evaluations and failures, intervals and folds are counted in `stats`.
+/// `[t_lo, t_hi]`, solving to `tolerance` or [`SEARCH_TOLERANCE`], whichever is tighter. Newton
+/// evaluations and failures, intervals and folds are counted in `stats`.
 pub fn triangle_intervals(
     patch: &TrianglePatch,
     ends: &PathEnds,
@@ -212,6 +220,7 @@ pub fn triangle_intervals(
     tolerance: f64,
     stats: &mut RenderStats,
 ) -> Intervals {
+    let tolerance = tolerance.min(SEARCH_TOLERANCE);
     let mut intervals = Intervals::default();
     let Some(range) = plane_t_range(patch, ends, t_lo, t_hi) else {
         return intervals;

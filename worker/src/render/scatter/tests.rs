@@ -247,6 +247,32 @@ fn interval_matches_reference_on_whole_segments() {
     }
 }
 
+/// A loose `newton_tolerance` only loosens the sample points, never the per-triangle search: with
+/// the interval method at K = 8, tolerances 1e-3 and 1e-6 stay within 1e-3 relative of the
+/// brute-force reference on the same segments as above (2000 points, 15 starts per triangle).
+/// Before the search kept its own tolerance, 1e-3 doubled the image (crossings found twice) and
+/// 1e-6 lost a third of it on the bumpy sphere.
+#[test]
+fn loose_newton_tolerance_degrades_gracefully() {
+    let setup = Setup::bumpy(1.5);
+    let reference = setup
+        .clone()
+        .with(json!({"method": "reference", "samples_per_segment": 2000}))
+        .build();
+    let seg = segment(&reference, ORIGIN, DIR);
+    let (truth, _) = estimate(&reference, &seg, 1);
+    for tolerance in [1e-3, 1e-6] {
+        let loose = setup
+            .clone()
+            .with(json!({"method": "interval", "k": 8, "newton_tolerance": tolerance}))
+            .build();
+        let (value, _) = estimate(&loose, &seg, 1);
+        let err = relative_error(value, truth);
+        println!("tolerance {tolerance:e}: interval {value} vs reference {truth}: {err:.2e}");
+        assert!(err < 1e-3, "tolerance {tolerance}: relative error {err}");
+    }
+}
+
 /// Point sampling converges to the reference as M grows (each the mean of 16 camera samples; the
 /// reference uses 4000 stratified points): measured relative errors 8.5e-3, 4.2e-4 and 5.8e-5 at
 /// M = 8, 64 and 512. Asserted: the error falls with M, and is below 1e-3 at M = 512.
