@@ -13,7 +13,6 @@ use super::ends::PathEnds;
 use super::patch::{Residual, TrianglePatch};
 use super::small_list::SmallList;
 use super::solve::{NewtonSettings, Slice, is_physical, newton};
-use crate::render::fresnel;
 
 /// The three edges of a triangle in barycentric coordinates.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -157,25 +156,39 @@ pub fn classify(edge: Edge, g: [f64; 3]) -> Option<Bound> {
 /// coplanar, `(P − origin)·(r̂ × w) = 0`, normalised by `‖r̂ × w‖`. Also returns the camera
 /// parameter t of the meeting point and the distance λ from P along w (positive = inside).
 fn skew(patch: &TrianglePatch, ends: &PathEnds, a: f64, b: f64) -> Option<(f64, f64, f64)> {
+    // The hot loop of the per-triangle search, so no normalisation: only the direction of the
+    // refracted ray w matters (the value is normalised by ‖r̂ × w‖, and λ's sign is all that is
+    // used), so w is Snell's vector scaled by ‖L − P‖. Three square roots instead of six.
     let p = patch.point(a, b);
-    let n = patch.normal(a, b).try_normalize()?;
-    let incoming = (p - ends.light).try_normalize()?;
-    if incoming.dot(n) >= 0.0 {
+    let n = patch.normal(a, b);
+    let d = p - ends.light;
+    let nn = n.length_squared();
+    let norms = (nn * d.length_squared()).sqrt(); // ‖n‖‖d‖
+    if !(norms > 0.0 && norms.is_finite()) {
         return None;
     }
-    let w = fresnel::refract(incoming, n, ends.eta)?;
+    let cos_i = -d.dot(n) / norms;
+    if cos_i.is_nan() || cos_i <= 0.0 {
+        return None;
+    }
+    let sin2_t = (1.0 - cos_i * cos_i) / (ends.eta * ends.eta);
+    if sin2_t >= 1.0 {
+        return None;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    let w = d / ends.eta + ((cos_i / ends.eta - cos_t) * norms / nn) * n;
     let cross = ends.dir.cross(w);
-    let len = cross.length();
-    if len.is_nan() || len <= 1e-12 {
+    let len2 = cross.length_squared();
+    let ww = w.length_squared();
+    if len2.is_nan() || len2 <= 1e-24 * ww {
         return None;
     }
     let rel = p - ends.origin;
-    let value = rel.dot(cross) / len;
-    // Closest points of the lines origin + t·r̂ and p + λ·w.
-    let rw = ends.dir.dot(w);
-    let denom = 1.0 - rw * rw;
-    let t = (rel.dot(ends.dir) - rw * rel.dot(w)) / denom;
-    let lambda = (rw * rel.dot(ends.dir) - rel.dot(w)) / denom;
+    let value = rel.dot(cross) / len2.sqrt();
+    // Closest points of the lines origin + t·r̂ and p + λ·w (λ in units of ‖w‖).
+    let (rd, rw, dw) = (rel.dot(ends.dir), rel.dot(w), ends.dir.dot(w));
+    let t = (rd * ww - dw * rw) / len2;
+    let lambda = (dw * rd - rw) / len2;
     Some((value, t, lambda))
 }
 
