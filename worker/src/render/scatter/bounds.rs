@@ -10,7 +10,7 @@
 
 use glam::DVec3;
 
-use super::prune::{BoundingSphere, NormalCone};
+use super::prune::{BoundingSphere, NormalCone, angle_between};
 use crate::render::bvh::Bvh;
 use crate::render::mesh::TriangleMesh;
 
@@ -41,6 +41,35 @@ impl TrianglePlane {
     /// Signed distance of `x` from the plane, positive on the normal's side.
     pub fn distance(&self, x: DVec3) -> f64 {
         self.normal.dot(x) - self.offset
+    }
+
+    /// Geometric sidedness (physics.md §2.3) for the camera points `origin + t·dir`, `t ∈ range`,
+    /// and the light point `light`: None if the light is not strictly in front of the plane or
+    /// no camera point of the range is behind it by at least `margin`; else the closed part of
+    /// the range where they are.
+    pub fn behind_range(
+        &self,
+        origin: DVec3,
+        dir: DVec3,
+        light: DVec3,
+        range: (f64, f64),
+        margin: f64,
+    ) -> Option<(f64, f64)> {
+        if self.distance(light) <= 0.0 {
+            return None;
+        }
+        let height = self.distance(origin);
+        let rate = self.normal.dot(dir);
+        let (mut lo, mut hi) = range;
+        // height + rate·t ≤ −margin.
+        if rate > 0.0 {
+            hi = hi.min((-height - margin) / rate);
+        } else if rate < 0.0 {
+            lo = lo.max((-height - margin) / rate);
+        } else if height > -margin {
+            return None;
+        }
+        (lo <= hi).then_some((lo, hi))
     }
 }
 
@@ -168,10 +197,6 @@ fn merge(x: NormalCone, y: NormalCone) -> Option<NormalCone> {
     let half_angle = (angle_between(axis, x.axis) + x.half_angle)
         .max(angle_between(axis, y.axis) + y.half_angle);
     NormalCone::convex(axis, half_angle)
-}
-
-fn angle_between(x: DVec3, y: DVec3) -> f64 {
-    x.cross(y).length().atan2(x.dot(y))
 }
 
 #[cfg(test)]

@@ -14,7 +14,7 @@
 use spindle_common::scene::Pruning;
 use spindle_common::stats::RenderStats;
 
-use super::bounds::{TrianglePlane, facing_bounds};
+use super::bounds::facing_bounds;
 use super::prune::SegmentQuery;
 use crate::render::scene::Object;
 
@@ -91,7 +91,10 @@ pub fn for_each_candidate(
                     let (corners, normals) = (mesh.corners(index), mesh.corner_normals(index));
                     facing_bounds(corners, normals, query.light).1 > 0.0
                 };
-                match behind_plane(query, &plane) {
+                let full = (query.t_lo, query.t_hi);
+                // Closed and without margin, so a solution exactly at the bound is kept; the
+                // per-triangle search pulls such bounds in by its own margin.
+                match plane.behind_range(query.origin, query.dir, query.light, full, 0.0) {
                     Some(r) if r.0.max(range.t_lo) <= r.1.min(range.t_hi) && faces_light() => {
                         search = r;
                     }
@@ -119,27 +122,6 @@ pub fn for_each_candidate(
             );
         }
     }
-}
-
-/// Geometric sidedness (physics.md §2.3): None if the light is not strictly in front of the
-/// plane or no `V(t)` of the range is behind it, else the part of the range where `V(t)` is
-/// behind or on it (closed, so a solution exactly at the bound is kept; the per-triangle search
-/// pulls such bounds in by its own margin).
-fn behind_plane(query: &SegmentQuery, plane: &TrianglePlane) -> Option<(f64, f64)> {
-    if plane.distance(query.light) <= 0.0 {
-        return None;
-    }
-    let height = plane.distance(query.origin);
-    let rate = plane.normal.dot(query.dir);
-    let (mut lo, mut hi) = (query.t_lo, query.t_hi);
-    if rate > 0.0 {
-        hi = hi.min(-height / rate);
-    } else if rate < 0.0 {
-        lo = lo.max(-height / rate);
-    } else if height > 0.0 {
-        return None;
-    }
-    (lo <= hi).then_some((lo, hi))
 }
 
 #[cfg(test)]

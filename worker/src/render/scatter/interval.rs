@@ -30,6 +30,7 @@
 use glam::DVec3;
 use spindle_common::stats::RenderStats;
 
+use super::bounds::TrianglePlane;
 use super::contribution::path_contribution;
 use super::edge::{BarycentricLine, Crossing, Edge, edge_crossings, line_crossings};
 use super::ends::PathEnds;
@@ -148,21 +149,14 @@ pub fn plane_t_range(
     t_lo: f64,
     t_hi: f64,
 ) -> Option<(f64, f64)> {
-    if patch.plane_distance(ends.light) <= 0.0 {
-        return None;
-    }
-    let (mut lo, mut hi) = (t_lo, t_hi);
-    let height = patch.plane_distance(ends.origin);
-    let rate = ends.dir.dot(patch.normal_g);
+    let plane = TrianglePlane {
+        normal: patch.normal_g,
+        offset: patch.normal_g.dot(patch.p0),
+    };
     let margin = PLANE_MARGIN * patch.double_area.sqrt();
-    if rate > 0.0 {
-        hi = hi.min((-height - margin) / rate);
-    } else if rate < 0.0 {
-        lo = lo.max((-height + margin) / rate);
-    } else if height >= 0.0 {
-        return None;
-    }
-    (lo < hi).then_some((lo, hi))
+    plane
+        .behind_range(ends.origin, ends.dir, ends.light, (t_lo, t_hi), margin)
+        .filter(|(lo, hi)| lo < hi)
 }
 
 /// Where a traced arc enters or leaves the region `triangle × t-range`.

@@ -277,7 +277,7 @@ fn chord_of_asin(s: f64) -> f64 {
 }
 
 /// The angle between two nonzero vectors, accurate near 0 and π.
-fn angle_between(x: DVec3, y: DVec3) -> f64 {
+pub fn angle_between(x: DVec3, y: DVec3) -> f64 {
     x.cross(y).length().atan2(x.dot(y))
 }
 
