@@ -261,6 +261,39 @@ mod tests {
         assert!(TrianglePlane::of_triangle([p[0], p[0], p[1]], up).is_none());
     }
 
+    /// The camera points behind the plane z = 0 by a margin, for a segment running either way
+    /// through it, along it, and with the light behind: hand-solved ranges.
+    #[test]
+    fn behind_range_keeps_the_camera_points_behind_the_plane() {
+        let plane =
+            TrianglePlane::of_triangle([DVec3::ZERO, DVec3::X, DVec3::Y], [DVec3::Z; 3]).unwrap();
+        let light = DVec3::new(0.0, 0.0, 5.0);
+        let m = 1e-3;
+        // From z = 1 going down: behind (z <= -m) from t = 1 + m on.
+        let down = plane.behind_range(DVec3::Z, -DVec3::Z, light, (0.0, 3.0), m);
+        assert_eq!(down, Some((1.0 + m, 3.0)));
+        // From z = -1 going up: behind until t = 1 - m.
+        let up = plane.behind_range(-DVec3::Z, DVec3::Z, light, (0.0, 3.0), m);
+        assert_eq!(up, Some((0.0, 1.0 - m)));
+        // Along the plane: all behind, or none.
+        let below = plane.behind_range(-DVec3::Z, DVec3::X, light, (0.0, 3.0), m);
+        assert_eq!(below, Some((0.0, 3.0)));
+        assert_eq!(
+            plane.behind_range(DVec3::ZERO, DVec3::X, light, (0.0, 3.0), m),
+            None
+        );
+        // The light behind the plane: nothing.
+        assert_eq!(
+            plane.behind_range(DVec3::Z, -DVec3::Z, -light, (0.0, 3.0), m),
+            None
+        );
+        // Entirely in front.
+        assert_eq!(
+            plane.behind_range(DVec3::Z, -DVec3::Z, light, (0.0, 0.5), m),
+            None
+        );
+    }
+
     /// The facing bounds hold `n(a, b)·(x − P(a, b))` at 20,000 random points of random curved
     /// triangles, and are attained at the vertices when the function is linear (flat normals).
     #[test]
