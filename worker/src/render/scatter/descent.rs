@@ -91,10 +91,9 @@ pub fn for_each_candidate(
                     let (corners, normals) = (mesh.corners(index), mesh.corner_normals(index));
                     facing_bounds(corners, normals, query.light).1 > 0.0
                 };
-                let full = (query.t_lo, query.t_hi);
                 // Closed and without margin, so a solution exactly at the bound is kept; the
                 // per-triangle search pulls such bounds in by its own margin.
-                match plane.behind_range(query.origin, query.dir, query.light, full, 0.0) {
+                match plane.behind_range(query.origin, query.dir, query.light, search, 0.0) {
                     Some(r) if r.0.max(range.t_lo) <= r.1.min(range.t_hi) && faces_light() => {
                         search = r;
                     }
