@@ -88,7 +88,7 @@ mod tests {
     use super::*;
     use crate::render::scatter::ends::PathEnds;
     use crate::render::scatter::ground_truth::{
-        SplitMix, backward_fd_distance, curved_patch, forward_fd_distance,
+        SplitMix, backward_fd_distance, curved_patch, flat_cases, forward_fd_distance,
     };
     use crate::render::scatter::solve::{
         NewtonSettings, RefractionPath, solve_at, straight_line_guess,
@@ -126,23 +126,7 @@ mod tests {
     #[test]
     fn flat_forms_agree() {
         let patch = big_flat();
-        let mut rng = SplitMix(2);
-        let mut cases = vec![(DVec3::new(0.3, -0.2, -0.8), DVec3::new(1.7, 0.9, 1.3), 1.5)];
-        for _ in 0..300 {
-            cases.push((
-                DVec3::new(
-                    rng.range(-1.0, 1.0),
-                    rng.range(-1.0, 1.0),
-                    rng.range(-2.0, -0.05),
-                ),
-                DVec3::new(
-                    rng.range(-3.0, 3.0),
-                    rng.range(-3.0, 3.0),
-                    rng.range(0.05, 3.0),
-                ),
-                rng.range(1.001, 4.0),
-            ));
-        }
+        let cases = flat_cases(2, 300, 3.0);
         for (case, &(v, l, eta)) in cases.iter().enumerate() {
             let ends = PathEnds {
                 origin: v,

@@ -194,6 +194,30 @@ pub fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
     rule
 }
 
+/// Seeded flat-plane configurations `(V, L, η)` for the plane z = 0: the §1.5 case, then `n`
+/// random ones with V below the plane (|x|, |y| ≤ 1, z ∈ [−2, −0.05]), L above it (|x|, |y| ≤
+/// `light_spread`, z ∈ [0.05, 3]) and η ∈ [1.001, 4].
+pub fn flat_cases(seed: u64, n: usize, light_spread: f64) -> Vec<(DVec3, DVec3, f64)> {
+    let mut rng = SplitMix(seed);
+    let mut cases = vec![(DVec3::new(0.3, -0.2, -0.8), DVec3::new(1.7, 0.9, 1.3), 1.5)];
+    for _ in 0..n {
+        cases.push((
+            DVec3::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(-2.0, -0.05),
+            ),
+            DVec3::new(
+                rng.range(-light_spread, light_spread),
+                rng.range(-light_spread, light_spread),
+                rng.range(0.05, 3.0),
+            ),
+            rng.range(1.001, 4.0),
+        ));
+    }
+    cases
+}
+
 /// The physics.md §1.5 end-to-end flat-plane configuration: the camera segment
 /// (0.3, −0.2, −0.05) → (0.1, 0.1, −3.0) as path ends with its length, the light at
 /// (1.7, 0.9, 1.3), η = 1.5, and the medium σ_s = 0.5, σ_t = 0.7, HG g = 0.3.

@@ -501,7 +501,7 @@ pub fn plane_piercing(patch: &TrianglePatch, ends: &PathEnds) -> Option<([f64; 3
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::scatter::ground_truth::{curved_patch, flat_refraction_point};
+    use crate::render::scatter::ground_truth::{curved_patch, flat_cases, flat_refraction_point};
 
     const TIGHT: f64 = 1e-14;
 
@@ -525,23 +525,7 @@ mod tests {
     #[test]
     fn flat_newton_matches_snell_bisection() {
         let patch = flat_patch(4.0);
-        let mut rng = crate::render::scatter::ground_truth::SplitMix(1);
-        let mut cases = vec![(DVec3::new(0.3, -0.2, -0.8), DVec3::new(1.7, 0.9, 1.3), 1.5)];
-        for _ in 0..200 {
-            cases.push((
-                DVec3::new(
-                    rng.range(-1.0, 1.0),
-                    rng.range(-1.0, 1.0),
-                    rng.range(-2.0, -0.05),
-                ),
-                DVec3::new(
-                    rng.range(-2.0, 2.0),
-                    rng.range(-2.0, 2.0),
-                    rng.range(0.05, 3.0),
-                ),
-                rng.range(1.001, 4.0),
-            ));
-        }
+        let cases = flat_cases(1, 200, 2.0);
         let mut worst = 0.0f64;
         for (case, &(v, l, eta)) in cases.iter().enumerate() {
             let truth = flat_refraction_point(DVec3::ZERO, DVec3::Z, v, l, eta);
