@@ -7,6 +7,7 @@
 //! solved exactly by the damped Newton on the edge, in `(t, s)`, and classified as a lower or an
 //! upper bound of t from the curve's tangent (physics.md §2.3 rules).
 
+use glam::DVec3;
 use spindle_common::stats::RenderStats;
 
 use super::ends::PathEnds;
@@ -27,7 +28,7 @@ pub enum Edge {
 
 /// Sign changes looked for along each line (the scan resolves crossings further apart than 1/16
 /// of the line).
-const LINE_SCAN: usize = 16;
+pub const LINE_SCAN: usize = 16;
 
 /// A straight segment `(a, b) = origin + s·dir`, `s ∈ [0, 1]`, in barycentric coordinates: an
 /// edge of the triangle or a line across it.
@@ -151,16 +152,26 @@ pub fn classify(edge: Edge, g: [f64; 3]) -> Option<Bound> {
     }
 }
 
+/// The skew scalar at one point of a line, with the camera parameter `t` of the meeting point and
+/// the distance λ from the point along the refracted ray (positive = inside); `None` where no
+/// refracted ray exists (see [`skew`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Skew {
+    pub value: f64,
+    pub t: f64,
+    pub lambda: f64,
+}
+
+/// The skew scalar at the [`LINE_SCAN`]` + 1` evenly spaced points `s = i / LINE_SCAN` of a line.
+pub type LineScan = [Option<Skew>; LINE_SCAN + 1];
+
 /// The scalar whose zeros along an edge are the crossings: the light ray from L refracted into the
-/// medium at the edge point P (shading normal there) meets the camera line iff the two lines are
-/// coplanar, `(P − origin)·(r̂ × w) = 0`, normalised by `‖r̂ × w‖`. Also returns the camera
-/// parameter t of the meeting point and the distance λ from P along w (positive = inside).
-fn skew(patch: &TrianglePatch, ends: &PathEnds, a: f64, b: f64) -> Option<(f64, f64, f64)> {
+/// medium at the point `p` with (unnormalised) shading normal `n` meets the camera line iff the
+/// two lines are coplanar, `(P − origin)·(r̂ × w) = 0`, normalised by `‖r̂ × w‖`.
+pub fn skew(p: DVec3, n: DVec3, ends: &PathEnds) -> Option<Skew> {
     // The hot loop of the per-triangle search, so no normalisation: only the direction of the
     // refracted ray w matters (the value is normalised by ‖r̂ × w‖, and λ's sign is all that is
     // used), so w is Snell's vector scaled by ‖L − P‖. Three square roots instead of six.
-    let p = patch.point(a, b);
-    let n = patch.normal(a, b);
     let d = p - ends.light;
     let nn = n.length_squared();
     let norms = (nn * d.length_squared()).sqrt(); // ‖n‖‖d‖
@@ -189,32 +200,55 @@ fn skew(patch: &TrianglePatch, ends: &PathEnds, a: f64, b: f64) -> Option<(f64, 
     let (rd, rw, dw) = (rel.dot(ends.dir), rel.dot(w), ends.dir.dot(w));
     let t = (rd * ww - dw * rw) / len2;
     let lambda = (dw * rd - rw) / len2;
-    Some((value, t, lambda))
+    Some(Skew { value, t, lambda })
+}
+
+/// The scan of a line of the triangle, from the patch.
+pub fn scan_line(patch: &TrianglePatch, ends: &PathEnds, line: &BarycentricLine) -> LineScan {
+    std::array::from_fn(|i| {
+        let (a, b) = line.at(i as f64 / LINE_SCAN as f64);
+        skew(patch.point(a, b), patch.normal(a, b), ends)
+    })
+}
+
+/// The scan of a straight edge from `p0` (normal `n0`) to `p1` (normal `n1`), the same whichever
+/// triangle the edge belongs to (see `edge_scans`).
+pub fn scan_edge(p: [DVec3; 2], n: [DVec3; 2], ends: &PathEnds) -> LineScan {
+    let (dp, dn) = (p[1] - p[0], n[1] - n[0]);
+    std::array::from_fn(|i| {
+        let s = i as f64 / LINE_SCAN as f64;
+        skew(p[0] + s * dp, n[0] + s * dn, ends)
+    })
 }
 
 /// Calls `found(x, residual)` for every point `x = (t, a, b)` where the curve crosses `line` at
-/// `s ∈ [0, 1]` and `t ∈ t_range`: sign changes of the skew scalar on [`LINE_SCAN`] intervals, each
-/// solved exactly by Newton on the line in `(t, s)`. Newton work and failures go to `stats`.
+/// `s ∈ [0, 1]` and `t ∈ t_range`: sign changes of the skew scalar on [`LINE_SCAN`] intervals
+/// (`scan`, the line's [`LineScan`]), each solved exactly by Newton on the line in `(t, s)`.
+/// Newton work and failures go to `stats`.
+#[allow(clippy::too_many_arguments)]
 pub fn line_crossings(
     patch: &TrianglePatch,
     ends: &PathEnds,
     line: &BarycentricLine,
+    scan: &LineScan,
     t_range: (f64, f64),
     tolerance: f64,
     stats: &mut RenderStats,
     mut found: impl FnMut([f64; 3], &Residual),
 ) {
-    let mut previous: Option<(f64, (f64, f64, f64))> = None;
-    for i in 0..=LINE_SCAN {
+    let mut previous: Option<(f64, Skew)> = None;
+    for (i, value) in scan.iter().enumerate() {
         let s = i as f64 / LINE_SCAN as f64;
-        let (a, b) = line.at(s);
-        let current = skew(patch, ends, a, b).map(|v| (s, v));
+        let current = value.map(|v| (s, v));
         if let (Some((s0, v0)), Some((s1, v1))) = (previous, current) {
             // A sign change with the meeting point in front of P (inside the medium).
-            if v0.0 * v1.0 <= 0.0 && (v0.2 > 0.0 || v1.2 > 0.0) && v0.0 != v1.0 {
-                let theta = v0.0 / (v0.0 - v1.0);
+            if v0.value * v1.value <= 0.0
+                && (v0.lambda > 0.0 || v1.lambda > 0.0)
+                && v0.value != v1.value
+            {
+                let theta = v0.value / (v0.value - v1.value);
                 let s_guess = s0 + theta * (s1 - s0);
-                let t_guess = (v0.1 + theta * (v1.1 - v0.1)).clamp(t_range.0, t_range.1);
+                let t_guess = (v0.t + theta * (v1.t - v0.t)).clamp(t_range.0, t_range.1);
                 let settings = NewtonSettings::new(tolerance, t_range);
                 let (zero, spent) =
                     newton(patch, ends, &line.slice(), (t_guess, s_guess), &settings);
@@ -234,13 +268,15 @@ pub fn line_crossings(
     }
 }
 
-/// Appends to `out` every crossing of the curve with `edge` at `t ∈ t_range` (beyond the list's
-/// capacity they are dropped, and counted in `stats.capacity_drops`). Newton evaluations and
-/// failures go to `stats`.
+/// Appends to `out` every crossing of the curve with `edge` at `t ∈ t_range`, from the edge's
+/// `scan` (beyond the list's capacity they are dropped, and counted in `stats.capacity_drops`).
+/// Newton evaluations and failures go to `stats`.
+#[allow(clippy::too_many_arguments)]
 pub fn edge_crossings<const N: usize>(
     patch: &TrianglePatch,
     ends: &PathEnds,
     edge: Edge,
+    scan: &LineScan,
     t_range: (f64, f64),
     tolerance: f64,
     out: &mut SmallList<Crossing, N>,
@@ -251,6 +287,7 @@ pub fn edge_crossings<const N: usize>(
         patch,
         ends,
         &edge.line(),
+        scan,
         t_range,
         tolerance,
         stats,
@@ -345,6 +382,7 @@ mod tests {
                     &patch,
                     &ends,
                     edge,
+                    &scan_line(&patch, &ends, &edge.line()),
                     (0.0, length),
                     1e-13,
                     &mut out,

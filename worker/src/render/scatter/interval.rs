@@ -32,7 +32,9 @@ use spindle_common::stats::RenderStats;
 
 use super::bounds::TrianglePlane;
 use super::contribution::path_contribution;
-use super::edge::{BarycentricLine, Crossing, Edge, edge_crossings, line_crossings};
+use super::edge::{
+    BarycentricLine, Crossing, Edge, LineScan, edge_crossings, line_crossings, scan_line,
+};
 use super::ends::PathEnds;
 use super::patch::TrianglePatch;
 use super::small_list::SmallList;
@@ -205,13 +207,29 @@ pub const SEARCH_TOLERANCE: f64 = 1e-10;
 
 /// The per-triangle search: finds every monotone branch of the curve inside the triangle within
 /// `[t_lo, t_hi]`, solving to `tolerance` or [`SEARCH_TOLERANCE`], whichever is tighter. Newton
-/// evaluations and failures, intervals and folds are counted in `stats`.
+/// evaluations and failures, intervals and folds are counted in `stats`. The triangle's edges are
+/// scanned from its own patch; [`triangle_intervals_with`] takes the scans from elsewhere.
 pub fn triangle_intervals(
     patch: &TrianglePatch,
     ends: &PathEnds,
     t_lo: f64,
     t_hi: f64,
     tolerance: f64,
+    stats: &mut RenderStats,
+) -> Intervals {
+    let own = |edge: Edge| scan_line(patch, ends, &edge.line());
+    triangle_intervals_with(patch, ends, t_lo, t_hi, tolerance, own, stats)
+}
+
+/// [`triangle_intervals`] with the scan of each edge (in the direction of [`Edge::line`]) from
+/// `edge_scan`, e.g. shared with the neighbouring triangles (`edge_scans`).
+pub fn triangle_intervals_with(
+    patch: &TrianglePatch,
+    ends: &PathEnds,
+    t_lo: f64,
+    t_hi: f64,
+    tolerance: f64,
+    mut edge_scan: impl FnMut(Edge) -> LineScan,
     stats: &mut RenderStats,
 ) -> Intervals {
     let tolerance = tolerance.min(SEARCH_TOLERANCE);
@@ -230,7 +248,17 @@ pub fn triangle_intervals(
     // Find where the curve crosses the region's boundary.
     let mut crossings: SmallList<Crossing, 12> = SmallList::default();
     for edge in Edge::ALL {
-        edge_crossings(patch, ends, edge, range, tolerance, &mut crossings, stats);
+        let scan = edge_scan(edge);
+        edge_crossings(
+            patch,
+            ends,
+            edge,
+            &scan,
+            range,
+            tolerance,
+            &mut crossings,
+            stats,
+        );
     }
     let mut boundary: SmallList<Boundary, 16> = SmallList::default();
     for c in crossings.iter() {
@@ -256,7 +284,8 @@ pub fn triangle_intervals(
     };
     for (line, l) in lines.iter().enumerate() {
         let mut dropped = 0;
-        line_crossings(patch, ends, l, range, tolerance, stats, |x, r| {
+        let scan = scan_line(patch, ends, l);
+        line_crossings(patch, ends, l, &scan, range, tolerance, stats, |x, r| {
             if is_physical(patch, r)
                 && let Some(g) = r.tangent()
             {

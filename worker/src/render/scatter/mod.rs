@@ -23,6 +23,7 @@ pub mod contribution;
 pub mod descent;
 pub mod distance;
 pub mod edge;
+pub mod edge_scans;
 pub mod ends;
 pub mod interval;
 pub mod light_sample;

@@ -13,7 +13,8 @@ use crate::render::Rgb;
 use crate::render::sampler::Sampler;
 use crate::render::scatter::connect::Connection;
 use crate::render::scatter::descent::{DescentStack, for_each_candidate};
-use crate::render::scatter::interval::{SampleRule, for_each_sample, triangle_intervals};
+use crate::render::scatter::edge_scans::EdgeScans;
+use crate::render::scatter::interval::{SampleRule, for_each_sample, triangle_intervals_with};
 
 /// The fractional part of the golden ratio, the stride of the jittered offsets.
 const GOLDEN: f64 = 0.618_033_988_749_894_9;
@@ -32,6 +33,9 @@ pub fn estimate(
     let ends = connection.ends;
     let query = connection.query(0.0, length);
     let mut sum = Rgb::ZERO;
+    // Each edge is scanned once for this query and shared by its two triangles.
+    let mut scans = EdgeScans::default();
+    let mesh = &connection.object.mesh;
     for_each_candidate(
         connection.object,
         &query,
@@ -43,7 +47,9 @@ pub fn estimate(
                 return;
             };
             let (t_lo, t_hi) = (candidate.t_lo, candidate.t_hi);
-            let intervals = triangle_intervals(&patch, &ends, t_lo, t_hi, tolerance, stats);
+            let edge_scan = |edge| scans.scan(mesh, candidate.triangle, edge, &ends);
+            let intervals =
+                triangle_intervals_with(&patch, &ends, t_lo, t_hi, tolerance, edge_scan, stats);
             for interval in intervals.iter() {
                 let u = if settings.jitter {
                     sampler.next_f64()
