@@ -162,16 +162,25 @@ pub struct Skew {
     pub lambda: f64,
 }
 
-/// The skew scalar at the [`LINE_SCAN`]` + 1` evenly spaced points `s = i / LINE_SCAN` of a line.
-pub type LineScan = [Option<Skew>; LINE_SCAN + 1];
+/// What the scan keeps of the skew scalar at one point: a value with the sign of
+/// [`Skew::value`] (not normalised), and whether λ > 0. Enough to find the brackets; the full
+/// [`Skew`] is computed only at their ends.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SkewSign {
+    pub value: f64,
+    pub ahead: bool,
+}
 
-/// The scalar whose zeros along an edge are the crossings: the light ray from L refracted into the
-/// medium at the point `p` with (unnormalised) shading normal `n` meets the camera line iff the
-/// two lines are coplanar, `(P − origin)·(r̂ × w) = 0`, normalised by `‖r̂ × w‖`.
-pub fn skew(p: DVec3, n: DVec3, ends: &PathEnds) -> Option<Skew> {
-    // The hot loop of the per-triangle search, so no normalisation: only the direction of the
-    // refracted ray w matters (the value is normalised by ‖r̂ × w‖, and λ's sign is all that is
-    // used), so w is Snell's vector scaled by ‖L − P‖. Three square roots instead of six.
+/// The scan of a line at the [`LINE_SCAN`]` + 1` evenly spaced points `s = i / LINE_SCAN`.
+pub type LineScan = [Option<SkewSign>; LINE_SCAN + 1];
+
+/// The light ray refracted at the point `p` with (unnormalised) shading normal `n`, and how it
+/// meets the camera line: `(rel, w, cross, len2)` with `rel = p − origin`, `w` the refracted
+/// direction (scaled by ‖L − P‖: only its direction matters), `cross = r̂ × w` and `len2 = ‖cross‖²`.
+/// `None` where the light is behind the normal, totally reflected, or the lines are parallel.
+#[inline]
+fn refracted(p: DVec3, n: DVec3, ends: &PathEnds) -> Option<(DVec3, DVec3, DVec3, f64)> {
+    // The hot loop of the per-triangle search, so no normalisation: two square roots.
     let d = p - ends.light;
     let nn = n.length_squared();
     let norms = (nn * d.length_squared()).sqrt(); // ‖n‖‖d‖
@@ -182,32 +191,50 @@ pub fn skew(p: DVec3, n: DVec3, ends: &PathEnds) -> Option<Skew> {
     if cos_i.is_nan() || cos_i <= 0.0 {
         return None;
     }
-    let sin2_t = (1.0 - cos_i * cos_i) / (ends.eta * ends.eta);
+    let inv_eta = ends.eta.recip();
+    let sin2_t = (1.0 - cos_i * cos_i) * (inv_eta * inv_eta);
     if sin2_t >= 1.0 {
         return None;
     }
     let cos_t = (1.0 - sin2_t).sqrt();
-    let w = d / ends.eta + ((cos_i / ends.eta - cos_t) * norms / nn) * n;
+    let w = d * inv_eta + ((cos_i * inv_eta - cos_t) * norms / nn) * n;
     let cross = ends.dir.cross(w);
     let len2 = cross.length_squared();
-    let ww = w.length_squared();
-    if len2.is_nan() || len2 <= 1e-24 * ww {
+    if len2.is_nan() || len2 <= 1e-24 * w.length_squared() {
         return None;
     }
-    let rel = p - ends.origin;
+    Some((p - ends.origin, w, cross, len2))
+}
+
+/// The scalar whose zeros along an edge are the crossings: the light ray from L refracted into the
+/// medium at the point `p` with (unnormalised) shading normal `n` meets the camera line iff the
+/// two lines are coplanar, `(P − origin)·(r̂ × w) = 0`, normalised by `‖r̂ × w‖`.
+pub fn skew(p: DVec3, n: DVec3, ends: &PathEnds) -> Option<Skew> {
+    let (rel, w, cross, len2) = refracted(p, n, ends)?;
     let value = rel.dot(cross) / len2.sqrt();
     // Closest points of the lines origin + t·r̂ and p + λ·w (λ in units of ‖w‖).
     let (rd, rw, dw) = (rel.dot(ends.dir), rel.dot(w), ends.dir.dot(w));
-    let t = (rd * ww - dw * rw) / len2;
+    let t = (rd * w.length_squared() - dw * rw) / len2;
     let lambda = (dw * rd - rw) / len2;
     Some(Skew { value, t, lambda })
+}
+
+/// [`skew`]'s signs only, without its divisions (`len2 > 0`).
+#[inline]
+pub fn skew_sign(p: DVec3, n: DVec3, ends: &PathEnds) -> Option<SkewSign> {
+    let (rel, w, cross, _) = refracted(p, n, ends)?;
+    let ahead = ends.dir.dot(w) * rel.dot(ends.dir) - rel.dot(w) > 0.0;
+    Some(SkewSign {
+        value: rel.dot(cross),
+        ahead,
+    })
 }
 
 /// The scan of a line of the triangle, from the patch.
 pub fn scan_line(patch: &TrianglePatch, ends: &PathEnds, line: &BarycentricLine) -> LineScan {
     std::array::from_fn(|i| {
         let (a, b) = line.at(i as f64 / LINE_SCAN as f64);
-        skew(patch.point(a, b), patch.normal(a, b), ends)
+        skew_sign(patch.point(a, b), patch.normal(a, b), ends)
     })
 }
 
@@ -217,7 +244,7 @@ pub fn scan_edge(p: [DVec3; 2], n: [DVec3; 2], ends: &PathEnds) -> LineScan {
     let (dp, dn) = (p[1] - p[0], n[1] - n[0]);
     std::array::from_fn(|i| {
         let s = i as f64 / LINE_SCAN as f64;
-        skew(p[0] + s * dp, n[0] + s * dn, ends)
+        skew_sign(p[0] + s * dp, n[0] + s * dn, ends)
     })
 }
 
@@ -236,35 +263,47 @@ pub fn line_crossings(
     stats: &mut RenderStats,
     mut found: impl FnMut([f64; 3], &Residual),
 ) {
-    let mut previous: Option<(f64, Skew)> = None;
-    for (i, value) in scan.iter().enumerate() {
-        let s = i as f64 / LINE_SCAN as f64;
-        let current = value.map(|v| (s, v));
-        if let (Some((s0, v0)), Some((s1, v1))) = (previous, current) {
-            // A sign change with the meeting point in front of P (inside the medium).
-            if v0.value * v1.value <= 0.0
-                && (v0.lambda > 0.0 || v1.lambda > 0.0)
-                && v0.value != v1.value
-            {
-                let theta = v0.value / (v0.value - v1.value);
-                let s_guess = s0 + theta * (s1 - s0);
-                let t_guess = (v0.t + theta * (v1.t - v0.t)).clamp(t_range.0, t_range.1);
-                let settings = NewtonSettings::new(tolerance, t_range);
-                let (zero, spent) =
-                    newton(patch, ends, &line.slice(), (t_guess, s_guess), &settings);
-                stats.newton_iterations += spent as u64;
-                match zero {
-                    Some(z) => {
-                        let (t, s) = z.uv;
-                        if (-1e-12..=1.0 + 1e-12).contains(&s) && t >= t_range.0 && t <= t_range.1 {
-                            found(z.x, &z.residual);
-                        }
-                    }
-                    None => stats.newton_failures += 1,
+    let full = |s: f64| {
+        let (a, b) = line.at(s);
+        skew(patch.point(a, b), patch.normal(a, b), ends)
+    };
+    for (i, pair) in scan.windows(2).enumerate() {
+        let [Some(c0), Some(c1)] = [pair[0], pair[1]] else {
+            continue;
+        };
+        // A sign change with the meeting point in front of P (inside the medium): found on the
+        // signs, confirmed on the full values at both ends.
+        if c0.value * c1.value > 0.0 || !(c0.ahead || c1.ahead) {
+            continue;
+        }
+        let (s0, s1) = (
+            i as f64 / LINE_SCAN as f64,
+            (i + 1) as f64 / LINE_SCAN as f64,
+        );
+        let (Some(v0), Some(v1)) = (full(s0), full(s1)) else {
+            continue;
+        };
+        if v0.value * v1.value > 0.0
+            || !(v0.lambda > 0.0 || v1.lambda > 0.0)
+            || v0.value == v1.value
+        {
+            continue;
+        }
+        let theta = v0.value / (v0.value - v1.value);
+        let s_guess = s0 + theta * (s1 - s0);
+        let t_guess = (v0.t + theta * (v1.t - v0.t)).clamp(t_range.0, t_range.1);
+        let settings = NewtonSettings::new(tolerance, t_range);
+        let (zero, spent) = newton(patch, ends, &line.slice(), (t_guess, s_guess), &settings);
+        stats.newton_iterations += spent as u64;
+        match zero {
+            Some(z) => {
+                let (t, s) = z.uv;
+                if (-1e-12..=1.0 + 1e-12).contains(&s) && t >= t_range.0 && t <= t_range.1 {
+                    found(z.x, &z.residual);
                 }
             }
+            None => stats.newton_failures += 1,
         }
-        previous = current;
     }
 }
 

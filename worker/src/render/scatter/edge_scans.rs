@@ -109,13 +109,12 @@ mod tests {
                 for (x, y) in own.iter().zip(a.iter()) {
                     match (x, y) {
                         (Some(x), Some(y)) => {
-                            let close = |p: f64, q: f64| (p - q).abs() <= 1e-9 * (1.0 + p.abs());
+                            // Same sign (unless both are rounding-level) and the same λ side.
                             assert!(
-                                close(x.value, y.value)
-                                    && close(x.t, y.t)
-                                    && close(x.lambda, y.lambda),
+                                x.value * y.value > 0.0 || x.value.abs().max(y.value.abs()) <= 1e-9,
                                 "triangle {triangle} {edge:?}: {x:?} vs {y:?}"
                             );
+                            assert_eq!(x.ahead, y.ahead, "triangle {triangle} {edge:?}");
                             compared += 1;
                         }
                         (None, None) => {}
