@@ -799,7 +799,7 @@ impl Tracer<'_> {
         out: &mut Intervals,
         stats: &mut RenderStats,
     ) {
-        let nodes: SmallList<Node, MAX_TRACE> = *arc;
+        let nodes = arc;
         let count = nodes.len();
         if count < 2 {
             return;

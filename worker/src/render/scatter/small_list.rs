@@ -4,18 +4,19 @@
 //! through [`SmallList::push_or_count`]), so a cap that is too small shows in the statistics
 //! instead of silently losing light.
 
-/// Up to `N` values of `T`; pushing beyond the capacity drops the value and reports it.
-#[derive(Debug, Clone, Copy)]
+use arrayvec::ArrayVec;
+
+/// Up to `N` values of `T`; pushing beyond the capacity drops the value and reports it. (An
+/// `ArrayVec`: the storage is not initialised until pushed to, so an empty list costs nothing.)
+#[derive(Debug, Clone)]
 pub struct SmallList<T: Copy, const N: usize> {
-    items: [Option<T>; N],
-    len: usize,
+    items: ArrayVec<T, N>,
 }
 
 impl<T: Copy, const N: usize> Default for SmallList<T, N> {
     fn default() -> Self {
         SmallList {
-            items: [None; N],
-            len: 0,
+            items: ArrayVec::new(),
         }
     }
 }
@@ -24,13 +25,7 @@ impl<T: Copy, const N: usize> SmallList<T, N> {
     /// Appends `value`; false (and the value is dropped) when the list is full.
     #[must_use = "a full list drops the value: count the drop"]
     pub fn push(&mut self, value: T) -> bool {
-        if self.len < N {
-            self.items[self.len] = Some(value);
-            self.len += 1;
-            true
-        } else {
-            false
-        }
+        self.items.try_push(value).is_ok()
     }
 
     /// Appends `value`, or adds 1 to `dropped` when the list is full (the value is dropped).
@@ -42,29 +37,27 @@ impl<T: Copy, const N: usize> SmallList<T, N> {
 
     /// The number of values.
     pub fn len(&self) -> usize {
-        self.len
+        self.items.len()
     }
 
     /// Whether the list holds no value.
     pub fn is_empty(&self) -> bool {
-        self.len == 0
+        self.items.is_empty()
     }
 
     /// The values in insertion order.
     pub fn iter(&self) -> impl Iterator<Item = &T> {
-        self.items[..self.len].iter().flatten()
+        self.items.iter()
     }
 
     /// The value at `index`, if any.
     pub fn get(&self, index: usize) -> Option<&T> {
-        self.items[..self.len].get(index).and_then(Option::as_ref)
+        self.items.get(index)
     }
 
     /// Mutable access to the value at `index`, if any.
     pub fn get_mut(&mut self, index: usize) -> Option<&mut T> {
-        self.items[..self.len]
-            .get_mut(index)
-            .and_then(Option::as_mut)
+        self.items.get_mut(index)
     }
 }
 
