@@ -201,6 +201,9 @@ struct ConeTest<'a> {
     /// `û_L`, the direction from the sphere's centre to the light, and the chord of the cone of
     /// `ω_L`; None when the light is inside the sphere (nothing is bounded).
     light: Option<(DVec3, f64)>,
+    /// `V(0) − C`, and the `t` of the segment's line closest to the sphere's centre.
+    origin: DVec3,
+    t_closest: f64,
 }
 
 impl<'a> ConeTest<'a> {
@@ -209,11 +212,14 @@ impl<'a> ConeTest<'a> {
         let d_light = to_light.length();
         let light = (d_light > sphere.radius)
             .then(|| (to_light / d_light, chord_of_asin(sphere.radius / d_light)));
+        let origin = query.origin - sphere.center;
         ConeTest {
             query,
             sphere,
             normals,
             light,
+            origin,
+            t_closest: -origin.dot(query.dir) / query.dir.length_squared(),
         }
     }
 
@@ -266,14 +272,14 @@ impl<'a> ConeTest<'a> {
         let Some((light_axis, chord_l)) = self.light else {
             return Piece::Kept;
         };
-        let (c, r) = (self.sphere.center, self.sphere.radius);
-        let a = self.query.point(lo) - c;
-        let b = self.query.point(hi) - c;
+        let r = self.sphere.radius;
+        // Points of the segment relative to the sphere's centre.
+        let at = |t: f64| self.origin + t * self.query.dir;
         // A piece inside the (convex) sphere: nothing is bounded on it or on any part of it.
-        if a.length_squared() <= r * r && b.length_squared() <= r * r {
+        if at(lo).length_squared() <= r * r && at(hi).length_squared() <= r * r {
             return Piece::Everywhere;
         }
-        let d2_piece = distance_squared_to_segment(a, b);
+        let d2_piece = at(self.t_closest.max(lo).min(hi)).length_squared();
         // (NaN keeps the piece: nothing is bounded.)
         if d2_piece.is_nan() || d2_piece <= r * r {
             return Piece::Kept;
@@ -287,7 +293,7 @@ impl<'a> ConeTest<'a> {
         // and few roots or divisions: this test runs for most nodes and triangles of every query.
         let eta = self.query.eta;
         let inv_d = d2_piece.sqrt().recip();
-        let middle = 0.5 * (a + b);
+        let middle = at(0.5 * (lo + hi));
         let sweep = 0.5 * (hi - lo) * inv_d;
         let chord_sphere = chord_bound(r * inv_d);
         let chord_v = chord_sphere + sweep.min(2.0);
