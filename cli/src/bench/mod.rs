@@ -39,7 +39,7 @@ pub struct BenchArgs {
     /// Folder for the CSV tables, PNG plots and `summary.txt`.
     #[arg(long, default_value = "bench-out")]
     pub out: PathBuf,
-    /// A smaller run (about a minute) with fewer settings, smaller meshes and images.
+    /// A smaller run (a few minutes) with fewer settings, smaller meshes and images.
     #[arg(long)]
     pub quick: bool,
     /// Folder of the shared test meshes (bunnies, Nefertiti); skipped with a reason if absent.

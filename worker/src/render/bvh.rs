@@ -183,9 +183,16 @@ impl Bvh {
 
     /// The triangle indices held by leaf `node` (empty for an inner node).
     pub fn leaf_triangles(&self, node: u32) -> impl Iterator<Item = u32> + '_ {
+        self.leaf_slots(node).map(|(_, triangle)| triangle)
+    }
+
+    /// The `(slot, triangle index)` pairs of leaf `node` (empty for an inner node). Slots are
+    /// consecutive within a leaf and leaves of a subtree are near each other, so per-triangle
+    /// data stored by slot is read in order by a descent.
+    pub fn leaf_slots(&self, node: u32) -> impl Iterator<Item = (u32, u32)> + '_ {
         let n = &self.tree.nodes[node as usize];
         let range = n.first_index..n.first_index + n.prim_count;
-        range.map(|slot| self.slots[slot as usize].index)
+        range.map(|slot| (slot, self.slots[slot as usize].index))
     }
 }
 

@@ -115,9 +115,12 @@ pub struct NodeBounds {
     pub cone: Option<NormalCone>,
 }
 
-/// The pruning data of one object, indexed like its mesh's triangles and its BVH's nodes.
+/// The pruning data of one object: per triangle, indexed by the BVH's leaf slot (see
+/// [`Bvh::leaf_slots`]: a descent reads them in order, which matters once a mesh outgrows the
+/// caches), and per BVH node.
 #[derive(Debug, Clone, Default)]
 pub struct PruneBounds {
+    /// By leaf slot.
     triangles: Vec<TriangleBounds>,
     nodes: Vec<NodeBounds>,
 }
@@ -125,8 +128,9 @@ pub struct PruneBounds {
 impl PruneBounds {
     /// Computes the bounds of every triangle of `mesh` and every node of `bvh` (built over it).
     pub fn build(mesh: &TriangleMesh, bvh: &Bvh) -> Self {
-        let triangles: Vec<TriangleBounds> = (0..mesh.triangle_count())
-            .map(|i| {
+        let triangles: Vec<TriangleBounds> = (0..bvh.triangle_count() as u32)
+            .map(|slot| {
+                let i = bvh.slot_triangle(slot) as usize;
                 let (corners, normals) = (mesh.corners(i), mesh.corner_normals(i));
                 TriangleBounds {
                     sphere: BoundingSphere::of_triangle(corners),
@@ -166,8 +170,9 @@ impl PruneBounds {
         PruneBounds { triangles, nodes }
     }
 
-    pub fn triangle(&self, index: u32) -> &TriangleBounds {
-        &self.triangles[index as usize]
+    /// The bounds of the triangle in BVH leaf slot `slot`.
+    pub fn triangle_at_slot(&self, slot: u32) -> &TriangleBounds {
+        &self.triangles[slot as usize]
     }
 
     pub fn node(&self, index: u32) -> &NodeBounds {

@@ -74,9 +74,9 @@ pub fn for_each_candidate(
             stack.push((left, range.t_lo, range.t_hi));
             continue;
         }
-        for triangle in object.bvh.leaf_triangles(node) {
+        for (slot, triangle) in object.bvh.leaf_slots(node) {
             stats.triangles_tested += 1;
-            let bounds = object.bounds.triangle(triangle);
+            let bounds = object.bounds.triangle_at_slot(slot);
             // Two ranges: `search`, handed to the candidate, is the query's range cut by the
             // plane only; `culling` is that cut by the cone tests too, and serves only to cull.
             // (The per-triangle search is cheaper from range ends on the plane or the segment's
