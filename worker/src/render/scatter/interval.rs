@@ -799,8 +799,7 @@ impl Tracer<'_> {
         out: &mut Intervals,
         stats: &mut RenderStats,
     ) {
-        let nodes = arc;
-        let count = nodes.len();
+        let count = arc.len();
         if count < 2 {
             return;
         }
@@ -808,7 +807,7 @@ impl Tracer<'_> {
         let mut branch: SmallList<[f64; 3], MAX_BRANCH> = SmallList::default();
         let mut sign = 0.0;
         let mut previous: Option<Node> = None;
-        for node in nodes.iter().copied() {
+        for node in arc.iter().copied() {
             let s = (sigma * node.g_t).signum();
             if let Some(prev) = previous {
                 let prev_sign = (sigma * prev.g_t).signum();
