@@ -245,15 +245,31 @@ pub fn triangle_intervals_with(
         tolerance,
     };
 
+    // Arcs end inside the triangle only where the light grazes the shading normal: where it
+    // faces every shading normal of the triangle, no arc misses the boundary and the lines are
+    // not scanned (they are most of the per-triangle cost).
+    let lines = if patch.min_facing_cosine(ends.light) > 2.0 * MIN_COS_LIGHT {
+        &[][..]
+    } else {
+        &INTERIOR_LINES[..]
+    };
+    let scans = Edge::ALL.map(&mut edge_scan);
+    if lines.is_empty() && !scans.iter().any(changes_sign) {
+        // The skew scalar keeps one sign all around the triangle and the light faces every
+        // normal (η > 1: no total reflection), so the curve's projection on the triangle
+        // touches no edge: it is empty or a closed loop (not searched, see above), and there
+        // is no solution at the range ends either.
+        return intervals;
+    }
+
     // Find where the curve crosses the region's boundary.
     let mut crossings: SmallList<Crossing, 12> = SmallList::default();
-    for edge in Edge::ALL {
-        let scan = edge_scan(edge);
+    for (edge, scan) in Edge::ALL.into_iter().zip(&scans) {
         edge_crossings(
             patch,
             ends,
             edge,
-            &scan,
+            scan,
             range,
             tolerance,
             &mut crossings,
@@ -274,14 +290,6 @@ pub fn triangle_intervals_with(
         tracer.range_end_points(side, t, &mut boundary, stats);
     }
     let mut seeds = InteriorSeeds::default();
-    // Arcs end inside the triangle only where the light grazes the shading normal: where it
-    // faces every shading normal of the triangle, no arc misses the boundary and the lines are
-    // not scanned (they are most of the per-triangle cost).
-    let lines = if patch.min_facing_cosine(ends.light) > 2.0 * MIN_COS_LIGHT {
-        &[][..]
-    } else {
-        &INTERIOR_LINES[..]
-    };
     for (line, l) in lines.iter().enumerate() {
         let mut dropped = 0;
         let scan = scan_line(patch, ends, l);
@@ -369,6 +377,16 @@ pub fn triangle_intervals_with(
         tracer.emit_branches(&arc, 1.0, &mut intervals, stats);
     }
     intervals
+}
+
+/// Whether the skew scalar may change sign along a scanned line: a sign change between two scan
+/// points, or a point where it is undefined.
+fn changes_sign(scan: &LineScan) -> bool {
+    let Some(Some(first)) = scan.first() else {
+        return true;
+    };
+    scan.iter()
+        .any(|c| c.is_none_or(|c| c.value * first.value <= 0.0))
 }
 
 /// Appends `node` to a traced arc; a full arc is first thinned to every other point, keeping both
