@@ -407,7 +407,8 @@ pub fn straight_line_guess(patch: &TrianglePatch, ends: &PathEnds, t: f64) -> Op
 /// bisection bracket on Snell's law `η x/√(x²+h_V²) = (ℓ−x)/√((ℓ−x)²+h_L²)`, which is strictly
 /// monotone (physics.md §5). Exact for flat triangles and close for curved ones, it starts the
 /// Newton solve away from the region where Ĥ·N̂ > 0, from which descent on ‖f‖ runs off to infinity
-/// (physics.md §2.2 pitfalls). None unless V is behind and L in front of the plane.
+/// (physics.md §2.2 pitfalls). None unless V is behind and L in front of the plane, and None
+/// where the guess would lie beyond [`BARYCENTRIC_ESCAPE`], where [`newton`] stops at once.
 pub fn plane_refraction_guess(
     patch: &TrianglePatch,
     ends: &PathEnds,
@@ -422,6 +423,18 @@ pub fn plane_refraction_guess(
     }
     let v_foot = v + h_v * n;
     let across = (ends.light - h_l * n) - v_foot;
+    // The guess lies between the feet of V and L on the plane: where both are beyond the same
+    // side of the escape box (by a margin far above rounding), so is the guess. Most range-end
+    // solves of the interval search are of this kind, and the Snell solve below is their cost.
+    let (foot_v, foot_l) = (
+        patch.barycentric(v_foot),
+        patch.barycentric(v_foot + across),
+    );
+    let (low, high) = (BARYCENTRIC_ESCAPE.0 - 0.5, BARYCENTRIC_ESCAPE.1 + 0.5);
+    let beyond = |x: f64, y: f64| (x < low && y < low) || (x > high && y > high);
+    if beyond(foot_v.0, foot_l.0) || beyond(foot_v.1, foot_l.1) {
+        return None;
+    }
     let ell = across.length();
     let x = if ell > 0.0 {
         let eta = ends.eta;
