@@ -162,13 +162,23 @@ pub struct Skew {
     pub lambda: f64,
 }
 
-/// What the scan keeps of the skew scalar at one point: a value with the sign of
-/// [`Skew::value`] (not normalised), and whether λ > 0. Enough to find the brackets; the full
-/// [`Skew`] is computed only at their ends.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// What the scan keeps of the skew scalar at one point: the sign of [`Skew::value`] (0 where it
+/// is zero or NaN: such a point brackets a crossing with either neighbour, like a sign change),
+/// and whether λ > 0. Enough to find the brackets; the full [`Skew`] is computed only at their
+/// ends. Two bytes, so that a scan is cheap to store, share and copy.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct SkewSign {
-    pub value: f64,
+    pub sign: i8,
     pub ahead: bool,
+}
+
+impl SkewSign {
+    /// Whether the skew scalar has one strict sign at both points (no crossing between them is
+    /// seen).
+    #[inline]
+    pub fn same_sign(self, other: SkewSign) -> bool {
+        self.sign * other.sign > 0
+    }
 }
 
 /// The scan of a line at the [`LINE_SCAN`]` + 1` evenly spaced points `s = i / LINE_SCAN`.
@@ -224,10 +234,15 @@ pub fn skew(p: DVec3, n: DVec3, ends: &PathEnds) -> Option<Skew> {
 pub fn skew_sign(p: DVec3, n: DVec3, ends: &PathEnds) -> Option<SkewSign> {
     let (rel, w, cross, _) = refracted(p, n, ends)?;
     let ahead = ends.dir.dot(w) * rel.dot(ends.dir) - rel.dot(w) > 0.0;
-    Some(SkewSign {
-        value: rel.dot(cross),
-        ahead,
-    })
+    let value = rel.dot(cross);
+    let sign = if value > 0.0 {
+        1
+    } else if value < 0.0 {
+        -1
+    } else {
+        0
+    };
+    Some(SkewSign { sign, ahead })
 }
 
 /// The scan of a line of the triangle, from the patch.
@@ -273,7 +288,7 @@ pub fn line_crossings(
         };
         // A sign change with the meeting point in front of P (inside the medium): found on the
         // signs, confirmed on the full values at both ends.
-        if c0.value * c1.value > 0.0 || !(c0.ahead || c1.ahead) {
+        if c0.same_sign(c1) || !(c0.ahead || c1.ahead) {
             continue;
         }
         let (s0, s1) = (

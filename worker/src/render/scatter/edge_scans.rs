@@ -75,7 +75,7 @@ impl EdgeScans {
 mod tests {
     use super::*;
     use crate::render::procedural::bumpy_sphere;
-    use crate::render::scatter::edge::scan_line;
+    use crate::render::scatter::edge::{LINE_SCAN, scan_line, skew};
     use crate::render::scatter::patch::TrianglePatch;
     use glam::DVec3;
 
@@ -106,12 +106,16 @@ mod tests {
                 let b = backward.scan(&mesh, count - 1 - triangle, edge, &ends);
                 let b_again = backward.scan(&mesh, count - 1 - triangle, edge, &ends);
                 assert_eq!(b, b_again);
-                for (x, y) in own.iter().zip(a.iter()) {
+                for (i, (x, y)) in own.iter().zip(a.iter()).enumerate() {
                     match (x, y) {
                         (Some(x), Some(y)) => {
-                            // Same sign (unless both are rounding-level) and the same λ side.
+                            // Same sign (unless the skew is rounding-level there) and the same
+                            // λ side.
+                            let (pa, pb) = edge.line().at(i as f64 / LINE_SCAN as f64);
+                            let size = skew(patch.point(pa, pb), patch.normal(pa, pb), &ends)
+                                .map_or(0.0, |k| k.value.abs());
                             assert!(
-                                x.value * y.value > 0.0 || x.value.abs().max(y.value.abs()) <= 1e-9,
+                                x.sign == y.sign || size <= 1e-9,
                                 "triangle {triangle} {edge:?}: {x:?} vs {y:?}"
                             );
                             assert_eq!(x.ahead, y.ahead, "triangle {triangle} {edge:?}");

@@ -394,8 +394,7 @@ fn changes_sign(scan: &LineScan) -> bool {
     let Some(Some(first)) = scan.first() else {
         return true;
     };
-    scan.iter()
-        .any(|c| c.is_none_or(|c| c.value * first.value <= 0.0))
+    scan.iter().any(|c| c.is_none_or(|c| !c.same_sign(*first)))
 }
 
 /// Appends `node` to a traced arc; a full arc is first thinned to every other point, keeping both
