@@ -58,10 +58,21 @@ pub fn for_each_candidate(
             stats.nodes_culled_spindle += 1;
             continue;
         }
+        let children = object.bvh.children(node);
         if pruning.cone
             && let Some(cone) = bounds.cone
         {
-            match range.cone_trim(bounds.sphere, cone) {
+            // An inner node's trimmed range is what its children start from; a leaf's would only
+            // narrow the ranges its triangles are culled on, which saved less than the trimming
+            // costs (the cone test's bisection from both ends: on the 70k bunny 0.7 % fewer
+            // triangles culled, 3 % more time), so a leaf is only tested.
+            let kept = match children {
+                Some(_) => range.cone_trim(bounds.sphere, cone),
+                None => range
+                    .cone_may_contain(bounds.sphere, cone)
+                    .then_some((range.t_lo, range.t_hi)),
+            };
+            match kept {
                 Some((lo, hi)) => range = range.with_range(lo, hi),
                 None => {
                     stats.nodes_culled_cone += 1;
@@ -69,7 +80,7 @@ pub fn for_each_candidate(
                 }
             }
         }
-        if let Some([left, right]) = object.bvh.children(node) {
+        if let Some([left, right]) = children {
             stack.push((right, range.t_lo, range.t_hi));
             stack.push((left, range.t_lo, range.t_hi));
             continue;
