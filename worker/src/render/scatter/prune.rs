@@ -194,9 +194,11 @@ impl SegmentQuery {
     /// the triangle, else the trimmed `[t_lo, t_hi]` that holds every solution.
     pub fn cone_trim(&self, sphere: BoundingSphere, normals: NormalCone) -> Option<(f64, f64)> {
         let test = ConeTest::new(self, sphere, normals);
-        let first = test.first_kept(self.t_lo, self.t_hi, CONE_DEPTH, true)?;
+        // The whole range's verdict starts both searches (tested once).
+        let whole = test.piece(self.t_lo, self.t_hi);
+        let first = test.first_kept_given(self.t_lo, self.t_hi, CONE_DEPTH, true, whole)?;
         let last = test
-            .first_kept(self.t_lo, self.t_hi, CONE_DEPTH, false)
+            .first_kept_given(self.t_lo, self.t_hi, CONE_DEPTH, false, whole)
             .unwrap_or(first);
         Some((first.0, last.1))
     }
@@ -243,7 +245,18 @@ impl<'a> ConeTest<'a> {
     /// `[lo, hi]` down to `depth` levels that the piece test keeps. (A piece known to be kept
     /// need not be tested: `Certain` and `Everywhere` say which pieces are.)
     fn first_kept(&self, lo: f64, hi: f64, depth: u32, from_low: bool) -> Option<(f64, f64)> {
-        let verdict = self.piece(lo, hi);
+        self.first_kept_given(lo, hi, depth, from_low, self.piece(lo, hi))
+    }
+
+    /// [`first_kept`](Self::first_kept) given the piece test's `verdict` on `[lo, hi]`.
+    fn first_kept_given(
+        &self,
+        lo: f64,
+        hi: f64,
+        depth: u32,
+        from_low: bool,
+        verdict: Piece,
+    ) -> Option<(f64, f64)> {
         if verdict == Piece::Culled {
             return None;
         }
