@@ -203,7 +203,7 @@ pub type LineScan = [Option<SkewSign>; LINE_SCAN + 1];
 /// `None` where the light is behind the normal, totally reflected, or the lines are parallel.
 #[inline]
 fn refracted(p: DVec3, n: DVec3, ends: &PathEnds) -> Option<(DVec3, DVec3, DVec3, f64)> {
-    // The hot loop of the per-triangle search, so no normalisation: two square roots.
+    // Used at the two ends of a bracket only; the scans use `skew_sign`'s division-free form.
     let d = p - ends.light;
     let nn = n.length_squared();
     let norms = (nn * d.length_squared()).sqrt(); // ‖n‖‖d‖
@@ -242,10 +242,33 @@ pub fn skew(p: DVec3, n: DVec3, ends: &PathEnds) -> Option<Skew> {
     Some(Skew { value, t, lambda })
 }
 
-/// [`skew`]'s signs only, without its divisions (`len2 > 0`).
+/// [`skew`]'s signs only. Both are linear in the refracted direction w, so any positive multiple
+/// of it serves: here `‖n‖² w` (w as in [`refracted`]), which needs no division and one square
+/// root, `‖n‖² w = ‖n‖²/η d − (d·n/η + ‖n‖‖d‖ cos θ_t) n` with `(‖n‖‖d‖ cos θ_t)² = ‖n‖²‖d‖² −
+/// (‖n‖²‖d‖² − (d·n)²)/η²`, `d = P − L`. None exactly where [`refracted`] is None (up to
+/// rounding). [`ScanPoints::skew_signs`] does the same operations, batched.
 #[inline]
 pub fn skew_sign(p: DVec3, n: DVec3, ends: &PathEnds) -> Option<SkewSign> {
-    let (rel, w, cross, _) = refracted(p, n, ends)?;
+    let d = p - ends.light;
+    let nn = n.length_squared();
+    let nd = nn * d.length_squared();
+    let dn = d.dot(n);
+    let inv_eta = ends.eta.recip();
+    let tangential = (nd - dn * dn) * (inv_eta * inv_eta);
+    let k = -(dn * inv_eta + (nd - tangential).sqrt());
+    let w = d * (nn * inv_eta) + k * n;
+    let cross = ends.dir.cross(w);
+    let len2 = cross.length_squared();
+    // The light in front of the normal (cos θ_i > 0), no total reflection, lines not parallel.
+    let valid = nd > 0.0
+        && nd.is_finite()
+        && dn < 0.0
+        && tangential < nd
+        && !(len2.is_nan() || len2 <= 1e-24 * w.length_squared());
+    if !valid {
+        return None;
+    }
+    let rel = p - ends.origin;
     let ahead = ends.dir.dot(w) * rel.dot(ends.dir) - rel.dot(w) > 0.0;
     Some(SkewSign::new(rel.dot(cross), ahead))
 }
@@ -304,15 +327,15 @@ impl ScanPoints {
         for i in 0..N {
             let (dx, dy, dz) = (px[i] - l.x, py[i] - l.y, pz[i] - l.z);
             let nn = nx[i] * nx[i] + ny[i] * ny[i] + nz[i] * nz[i];
-            let norms = (nn * (dx * dx + dy * dy + dz * dz)).sqrt();
-            let cos_i = -(dx * nx[i] + dy * ny[i] + dz * nz[i]) / norms;
-            let sin2_t = (1.0 - cos_i * cos_i) * (inv_eta * inv_eta);
-            let cos_t = (1.0 - sin2_t).sqrt();
-            let k = (cos_i * inv_eta - cos_t) * norms / nn;
+            let nd = nn * (dx * dx + dy * dy + dz * dz);
+            let dn = dx * nx[i] + dy * ny[i] + dz * nz[i];
+            let tangential = (nd - dn * dn) * (inv_eta * inv_eta);
+            let k = -(dn * inv_eta + (nd - tangential).sqrt());
+            let scale = nn * inv_eta;
             let (wx, wy, wz) = (
-                dx * inv_eta + k * nx[i],
-                dy * inv_eta + k * ny[i],
-                dz * inv_eta + k * nz[i],
+                dx * scale + k * nx[i],
+                dy * scale + k * ny[i],
+                dz * scale + k * nz[i],
             );
             let (cx, cy, cz) = (
                 r.y * wz - wy * r.z,
@@ -327,11 +350,10 @@ impl ScanPoints {
             let dir_w = r.x * wx + r.y * wy + r.z * wz;
             value[i] = rx * cx + ry * cy + rz * cz;
             ahead[i] = dir_w * rel_dir - rel_w > 0.0;
-            // `skew_sign`'s None cases; NaN fails every comparison written this way round.
-            valid[i] = norms > 0.0
-                && norms.is_finite()
-                && cos_i > 0.0
-                && sin2_t < 1.0
+            valid[i] = nd > 0.0
+                && nd.is_finite()
+                && dn < 0.0
+                && tangential < nd
                 && !(len2.is_nan() || len2 <= 1e-24 * w2);
         }
         std::array::from_fn(|i| valid[i].then(|| SkewSign::new(value[i], ahead[i])))
