@@ -345,10 +345,11 @@ impl<'a> ConeTest<'a> {
         }
         // A solution needs Ĥ = −N̂s: the angle between −û_H and the normal cone's axis at most
         // θ_N + θ_H, with sin θ_H = spread/|H|. Both are below π/2, so compare cosines, times |H|:
-        // |H| cos(θ_N + θ_H) = cos θ_N √(|H|² − spread²) − sin θ_N · spread.
-        let limit =
-            self.normals.cos_wide * (h2 - spread * spread).sqrt() - self.normals.sin_wide * spread;
-        if along_axis >= limit {
+        // |H| cos(θ_N + θ_H) = cos θ_N √(|H|² − spread²) − sin θ_N · spread, i.e. kept iff
+        // `along + sin θ_N · spread ≥ cos θ_N √(|H|² − spread²)`, compared squared (no root).
+        let (cos_n, sin_n) = (self.normals.cos_wide, self.normals.sin_wide);
+        let lhs = along_axis + sin_n * spread;
+        if lhs >= 0.0 && lhs * lhs >= cos_n * cos_n * (h2 - spread * spread) {
             if fine { Piece::Fine } else { Piece::Kept }
         } else {
             Piece::Culled
