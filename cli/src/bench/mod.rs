@@ -104,6 +104,11 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     report.finish()
 }
 
+/// Seconds beyond which a render is timed once: the noise that repeats average out (a few
+/// milliseconds of scheduling) is then below a per cent, and the full accuracy sweep's point
+/// sampling at M = 512 and 1024 would otherwise take most of its time repeating itself.
+const LONG_RENDER: f64 = 5.0;
+
 /// Renders on a private single-thread pool and times it.
 pub struct Runner {
     pool: rayon::ThreadPool,
@@ -138,7 +143,8 @@ impl Runner {
     }
 
     /// Renders `rect` `repeats` times; the fastest time counts (the pixels are the same bits
-    /// every time: rendering is deterministic).
+    /// every time: rendering is deterministic). A render longer than [`LONG_RENDER`] is not
+    /// repeated.
     pub fn render(&self, scene: &Scene, rect: TileRect) -> Timed {
         let mut best = f64::INFINITY;
         let mut pixels = None;
@@ -147,6 +153,9 @@ impl Runner {
             let p = self.pool.install(|| render_tile(scene, rect));
             best = best.min(started.elapsed().as_secs_f64());
             pixels = Some(p);
+            if best >= LONG_RENDER {
+                break;
+            }
         }
         Timed {
             seconds: best,
