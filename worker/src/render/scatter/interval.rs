@@ -1311,6 +1311,40 @@ mod tests {
         }
     }
 
+    /// At the midpoints of `n` equal steps of `[0, length]` farther than `margin` from every
+    /// interval end, the number of intervals covering t equals the number of solutions found by
+    /// brute force. Returns how many t were checked and how many of them have a solution.
+    fn assert_intervals_cover_solutions(
+        patch: &TrianglePatch,
+        ends: &PathEnds,
+        intervals: &Intervals,
+        length: f64,
+        n: usize,
+        margin: f64,
+        what: &str,
+    ) -> (usize, usize) {
+        let h = length / n as f64;
+        let (mut checked, mut with_solutions) = (0, 0);
+        for i in 0..n {
+            let t = (i as f64 + 0.5) * h;
+            let near_end = intervals
+                .iter()
+                .any(|iv| (t - iv.t_min).abs() < margin || (t - iv.t_max).abs() < margin);
+            if near_end {
+                continue;
+            }
+            let covering = intervals
+                .iter()
+                .filter(|iv| t >= iv.t_min && t <= iv.t_max)
+                .count();
+            let brute = all_solutions(patch, ends, t).len();
+            assert_eq!(covering, brute, "{what}, t = {t}: {intervals:?}");
+            checked += 1;
+            with_solutions += usize::from(brute > 0);
+        }
+        (checked, with_solutions)
+    }
+
     /// A long arc: on a small triangle of the bumpy-sphere example (size 0.07) the camera segment
     /// runs nearly along the refracted light, so the curve spans t ∈ [0, 1.01], 14 triangle sizes,
     /// and tracing it takes about 95 steps — more than the 96 points an arc holds, which used to
@@ -1367,23 +1401,8 @@ mod tests {
         assert!(covered > 1.0, "covered {covered}");
         let n = 400;
         let h = length / n as f64;
-        let mut with_solutions = 0;
-        for i in 0..n {
-            let t = (i as f64 + 0.5) * h;
-            let near_end = intervals
-                .iter()
-                .any(|iv| (t - iv.t_min).abs() < h || (t - iv.t_max).abs() < h);
-            if near_end {
-                continue;
-            }
-            let covering = intervals
-                .iter()
-                .filter(|iv| t >= iv.t_min && t <= iv.t_max)
-                .count();
-            let brute = all_solutions(&patch, &ends, t).len();
-            with_solutions += (brute > 0) as usize;
-            assert_eq!(covering, brute, "t = {t}: {intervals:?}");
-        }
+        let (_, with_solutions) =
+            assert_intervals_cover_solutions(&patch, &ends, &intervals, length, n, h, "long arc");
         println!("{with_solutions} of {n} t have a solution; covered {covered:.6}");
     }
 
@@ -1441,24 +1460,13 @@ mod tests {
             let steps = stats.newton_iterations;
             searched += u64::from(steps > 0);
             let m = 40;
-            let h = length / m as f64;
-            for i in 0..m {
-                let t = (i as f64 + 0.5) * h;
-                let near_end = intervals
-                    .iter()
-                    .any(|iv| (t - iv.t_min).abs() < 1e-3 * h || (t - iv.t_max).abs() < 1e-3 * h);
-                if near_end {
-                    continue;
-                }
-                let covering = intervals
-                    .iter()
-                    .filter(|iv| t >= iv.t_min && t <= iv.t_max)
-                    .count();
-                let brute = all_solutions(&patch, &ends, t).len();
-                assert_eq!(covering, brute, "case {case}, t = {t}: {intervals:?}");
-                checked += 1;
-                with_solutions += usize::from(brute > 0);
-            }
+            let margin = 1e-3 * length / m as f64;
+            let what = format!("case {case}");
+            let (n, solved) = assert_intervals_cover_solutions(
+                &patch, &ends, &intervals, length, m, margin, &what,
+            );
+            checked += n;
+            with_solutions += solved;
         }
         println!(
             "{checked} t checked, {with_solutions} with solutions ({searched} cases searched)"
