@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use spindle_common::scene::{Scene as SceneDesc, Shape};
-use spindle_worker::render::Assets;
+use spindle_render::Assets;
 
 /// A scene file and its meshes.
 pub struct SceneFiles {

@@ -4,7 +4,7 @@ use indicatif::ProgressBar;
 use spindle_common::image::Image;
 use spindle_common::stats::RenderStats;
 use spindle_common::tile::{TileRect, split_centre_first};
-use spindle_worker::render::{Scene, render_tile_with_progress};
+use spindle_render::{Scene, render_tile_with_progress};
 
 /// Tile edge for in-process rendering: small enough for a lively preview order, large enough to
 /// keep every core busy inside a tile.

@@ -1,6 +1,6 @@
 //! `spindle render --workers N` (N ≥ 1): an embedded local farm. The coordinator runs in this
 //! process on 127.0.0.1 with a temporary data directory and random tokens; N workers run in
-//! this process too, as tasks of `spindle_worker::farm::run`, each with its own rayon pool of
+//! this process too, as tasks of `spindle_worker::run`, each with its own rayon pool of
 //! cores/N threads. The scene goes through exactly the path a remote farm uses (assets by
 //! hash, job submission, leases, tile uploads, assembly), so what works here works on many
 //! machines.
@@ -12,7 +12,7 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, anyhow};
 use spindle_common::protocol::JobInfo;
-use spindle_worker::farm;
+use spindle_worker as worker;
 use tokio_util::sync::CancellationToken;
 
 use crate::api::{Api, ImageFile};
@@ -67,13 +67,13 @@ where
     let threads = (cores / workers).max(1);
     let mut tasks = Vec::with_capacity(workers);
     for i in 0..workers {
-        let config = farm::Config::new(
+        let config = worker::Config::new(
             &base,
             Some(worker_token.clone()),
             Some(format!("local-{i}")),
             Some(threads),
         )?;
-        tasks.push(tokio::spawn(farm::run(config, shutdown.clone())));
+        tasks.push(tokio::spawn(worker::run(config, shutdown.clone())));
     }
 
     let api = Api::new(&base, Some(client_token))?;

@@ -19,8 +19,8 @@ use spindle_common::protocol::DEFAULT_TILE_SIZE;
 use spindle_common::scene::Scene as SceneDesc;
 use spindle_common::stats::RenderStats;
 use spindle_common::tile::TileRect;
-use spindle_worker::render::scatter::describe_plan;
-use spindle_worker::render::{Scene, render_pixel};
+use spindle_render::scatter::describe_plan;
+use spindle_render::{Scene, render_pixel};
 
 use crate::load::load_scene;
 

@@ -6,7 +6,7 @@ use std::process::Command;
 use spindle_common::image::read_exr;
 use spindle_common::scene::Scene as SceneDesc;
 use spindle_common::tile::TileRect;
-use spindle_worker::render::{Assets, Scene, render_tile};
+use spindle_render::{Assets, Scene, render_tile};
 
 fn repo() -> &'static Path {
     Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))

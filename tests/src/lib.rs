@@ -18,7 +18,7 @@ use serde_json::Value;
 use spindle_common::image::Image;
 use spindle_common::protocol::{JobInfo, SubmitJob, asset_hash};
 use spindle_common::tile::split_centre_first;
-use spindle_worker::render::{Assets, Scene, render_tile};
+use spindle_render::{Assets, Scene, render_tile};
 
 /// The path of one of the workspace's binaries (`spindle-server`, `spindle-worker`,
 /// `spindle`), next to the directory of the running test executable.

@@ -1,4 +1,4 @@
-//! `spindle-worker`: a farm worker process. A thin shell over [`spindle_worker::farm::run`]:
+//! `spindle-worker`: a farm worker process. A thin shell over [`spindle_worker::run`]:
 //! parse the settings, set up logging and signals, run until SIGTERM or Ctrl-C.
 
 use std::io::IsTerminal;
@@ -7,7 +7,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Parser;
-use spindle_worker::farm::{self, Config};
+use spindle_worker::Config;
 use tokio_util::sync::CancellationToken;
 
 /// Renders tiles for a spindle coordinator.
@@ -65,7 +65,7 @@ fn real_main(args: Args) -> anyhow::Result<()> {
     runtime.block_on(async {
         let shutdown = CancellationToken::new();
         tokio::spawn(stop_on_signal(shutdown.clone()));
-        farm::run(config, shutdown).await.map(drop)
+        spindle_worker::run(config, shutdown).await.map(drop)
     })
 }
 

@@ -43,7 +43,7 @@ fn parse_vm_hwm(status: &str) -> Option<u64> {
 /// The child's side: render `scene` in process and print the peak memory.
 pub fn probe(scene_path: &Path) -> Result<()> {
     let files = load_scene(scene_path)?;
-    let scene = spindle_worker::render::Scene::build(&files.desc, &files.assets)
+    let scene = spindle_render::Scene::build(&files.desc, &files.assets)
         .with_context(|| format!("invalid scene {}", scene_path.display()))?;
     let film = scene.film();
     let full = spindle_common::tile::TileRect {

@@ -28,7 +28,7 @@ use anyhow::{Context, Result};
 use spindle_common::scene as desc;
 use spindle_common::stats::RenderStats;
 use spindle_common::tile::{TilePixels, TileRect, split_centre_first};
-use spindle_worker::render::{Scene, render_tile};
+use spindle_render::{Scene, render_tile};
 
 use report::Report;
 use scenes::Model;

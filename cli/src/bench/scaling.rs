@@ -11,7 +11,7 @@
 use anyhow::Result;
 use spindle_common::scene::ScatterMethod;
 use spindle_common::tile::TileRect;
-use spindle_worker::render::Scene;
+use spindle_render::Scene;
 
 use super::metric::loglog_fit;
 use super::plot::{self, Labels, Mark, Series};

@@ -10,8 +10,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use spindle_common::scene as desc;
-use spindle_worker::render::Assets;
-use spindle_worker::render::obj::parse_obj;
+use spindle_render::Assets;
+use spindle_render::obj::parse_obj;
 
 /// The meshes of `../shared/meshes` the issue names, smallest first.
 pub const SHARED_MESHES: [&str; 4] = [

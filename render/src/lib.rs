@@ -1,0 +1,31 @@
+//! The renderer: a pure library, scene in, pixels out.
+//!
+//! [`Scene::build`] validates a scene description and the bytes of its meshes into world-space
+//! geometry with BVHs; [`render_tile`] renders a rectangle of it. Nothing here opens a file or a
+//! socket or starts a runtime (this crate depends on no I/O or async crate), and a pixel's value depends only on
+//! (scene, seed, pixel, sample).
+
+#![forbid(unsafe_code)]
+
+pub mod bvh;
+pub mod camera;
+pub mod fresnel;
+pub mod light;
+pub mod medium;
+pub mod mesh;
+pub mod obj;
+pub mod procedural;
+pub mod ray;
+pub mod sampler;
+pub mod scatter;
+pub mod scene;
+pub mod segment;
+pub mod tile;
+pub mod transform;
+pub mod transport;
+
+/// Linear RGB radiance (or throughput), one f64 per channel.
+pub type Rgb = glam::DVec3;
+
+pub use scene::{Assets, Scene, SceneError};
+pub use tile::{PixelValue, render_pixel, render_tile, render_tile_with_progress};

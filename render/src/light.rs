@@ -1,0 +1,290 @@
+//! Light sources: isotropic point lights and spherical area lights.
+//!
+//! Lights live outside every medium, in air. A sphere light is seen by camera paths (directly,
+//! in reflection and in transmission) through [`Light::intersect`], and lights diffuse surfaces
+//! through [`Light::sample_incident`] (uniform over the cone the sphere subtends, which has no
+//! wasted samples on its far side). [`Light::sample_area`] samples a sphere by area, for
+//! integrators that need a point and a normal on the light.
+
+use glam::DVec3;
+use spindle_common::scene as desc;
+
+use crate::Rgb;
+use crate::ray::Ray;
+
+/// A light source.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Light {
+    /// Isotropic point light; `intensity` in W/sr.
+    Point { position: DVec3, intensity: Rgb },
+    /// A sphere emitting `radiance` uniformly from its surface.
+    Sphere {
+        center: DVec3,
+        radius: f64,
+        radiance: Rgb,
+    },
+}
+
+/// Light arriving at a point from one light sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IncidentSample {
+    /// Unit direction from the receiver toward the light.
+    pub dir: DVec3,
+    /// Distance to the sampled light point (for the shadow ray).
+    pub distance: f64,
+    /// Radiance over the direction pdf (sphere) or intensity over distance² (point): multiply
+    /// by the BSDF and the receiver's cosine for the estimate of reflected radiance.
+    pub weight: Rgb,
+}
+
+/// A point sampled on a light's surface.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AreaSample {
+    pub point: DVec3,
+    /// Unit outward normal of the light at `point`.
+    pub normal: DVec3,
+    /// Density per unit area.
+    pub pdf_area: f64,
+}
+
+/// What is wrong with a light; the field is named relative to the light.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LightError {
+    #[error("{field}: must be finite and >= 0 in every component, got {value:?}")]
+    Power {
+        field: &'static str,
+        value: [f64; 3],
+    },
+    #[error("{field}: must be finite, got {value:?}")]
+    Position {
+        field: &'static str,
+        value: [f64; 3],
+    },
+    #[error("radius: must be finite and > 0, got {0}")]
+    Radius(f64),
+}
+
+fn power(field: &'static str, v: [f64; 3]) -> Result<Rgb, LightError> {
+    let c = DVec3::from_array(v);
+    if c.is_finite() && c.min_element() >= 0.0 {
+        Ok(c)
+    } else {
+        Err(LightError::Power { field, value: v })
+    }
+}
+
+fn position(field: &'static str, v: [f64; 3]) -> Result<DVec3, LightError> {
+    let p = DVec3::from_array(v);
+    if p.is_finite() {
+        Ok(p)
+    } else {
+        Err(LightError::Position { field, value: v })
+    }
+}
+
+impl Light {
+    pub fn new(light: &desc::Light) -> Result<Light, LightError> {
+        Ok(match *light {
+            desc::Light::Point {
+                position: p,
+                intensity,
+            } => Light::Point {
+                position: position("position", p)?,
+                intensity: power("intensity", intensity)?,
+            },
+            desc::Light::Sphere {
+                center,
+                radius,
+                radiance,
+            } => {
+                if !(radius.is_finite() && radius > 0.0) {
+                    return Err(LightError::Radius(radius));
+                }
+                Light::Sphere {
+                    center: position("center", center)?,
+                    radius,
+                    radiance: power("radiance", radiance)?,
+                }
+            }
+        })
+    }
+
+    /// The nearest `t > 0` where `ray` (unit direction) hits the light's surface, and the
+    /// radiance it sees there. Point lights cannot be hit.
+    pub fn intersect(&self, ray: &Ray) -> Option<(f64, Rgb)> {
+        match *self {
+            Light::Point { .. } => None,
+            Light::Sphere {
+                center,
+                radius,
+                radiance,
+            } => sphere_hit(ray.origin, ray.dir, center, radius).map(|t| (t, radiance)),
+        }
+    }
+
+    /// One light sample for a receiver at `p` from two uniform numbers. `None` when the
+    /// receiver is inside a sphere light or the light is black.
+    pub fn sample_incident(&self, p: DVec3, u: [f64; 2]) -> Option<IncidentSample> {
+        match *self {
+            Light::Point {
+                position,
+                intensity,
+            } => {
+                let to = position - p;
+                let d2 = to.length_squared();
+                let distance = d2.sqrt();
+                (distance > 0.0).then(|| IncidentSample {
+                    dir: to / distance,
+                    distance,
+                    weight: intensity / d2,
+                })
+            }
+            Light::Sphere {
+                center,
+                radius,
+                radiance,
+            } => {
+                let to = center - p;
+                let dc = to.length();
+                if dc <= radius {
+                    return None;
+                }
+                let axis = to / dc;
+                // Uniform in the subtended cone; 1 − cos θmax written without cancellation.
+                let sin2_max = (radius / dc).powi(2);
+                let cos_max = (1.0 - sin2_max).max(0.0).sqrt();
+                let one_minus_cos_max = sin2_max / (1.0 + cos_max);
+                let one_minus_cos = u[0] * one_minus_cos_max;
+                let cos = 1.0 - one_minus_cos;
+                let sin = (one_minus_cos * (2.0 - one_minus_cos)).max(0.0).sqrt();
+                let phi = 2.0 * std::f64::consts::PI * u[1];
+                let (t1, t2) = axis.any_orthonormal_pair();
+                let dir = (axis * cos + (t1 * phi.cos() + t2 * phi.sin()) * sin).normalize();
+                // Distance to the near surface; at the silhouette, the tangent distance.
+                let distance = sphere_hit(p, dir, center, radius)
+                    .unwrap_or_else(|| (dc * dc - radius * radius).max(0.0).sqrt());
+                let pdf = 1.0 / (2.0 * std::f64::consts::PI * one_minus_cos_max);
+                Some(IncidentSample {
+                    dir,
+                    distance,
+                    weight: radiance / pdf,
+                })
+            }
+        }
+    }
+
+    /// A point uniformly distributed over a sphere light's surface (`None` for a point light).
+    pub fn sample_area(&self, u: [f64; 2]) -> Option<AreaSample> {
+        match *self {
+            Light::Point { .. } => None,
+            Light::Sphere { center, radius, .. } => {
+                let z = 1.0 - 2.0 * u[0];
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                let phi = 2.0 * std::f64::consts::PI * u[1];
+                let normal = DVec3::new(r * phi.cos(), r * phi.sin(), z);
+                Some(AreaSample {
+                    point: center + radius * normal,
+                    normal,
+                    pdf_area: 1.0 / (4.0 * std::f64::consts::PI * radius * radius),
+                })
+            }
+        }
+    }
+}
+
+/// The nearest `t > 0` where `origin + t·dir` (unit `dir`) meets the sphere.
+fn sphere_hit(origin: DVec3, dir: DVec3, center: DVec3, radius: f64) -> Option<f64> {
+    // Stable form: distance along the ray to the closest approach, then the half chord.
+    let oc = center - origin;
+    let along = oc.dot(dir);
+    let closest = oc - along * dir;
+    let h2 = radius * radius - closest.length_squared();
+    if h2 < 0.0 {
+        return None;
+    }
+    let half = h2.sqrt();
+    let (near, far) = (along - half, along + half);
+    if near > 0.0 {
+        Some(near)
+    } else if far > 0.0 {
+        Some(far)
+    } else {
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampler::Sampler;
+
+    #[test]
+    fn sphere_light_irradiance_matches_the_analytic_value() {
+        // Irradiance on a surface facing a sphere of radiance L at distance d: E = π L (R/d)².
+        let light = Light::Sphere {
+            center: DVec3::new(0.0, 0.0, 3.0),
+            radius: 0.7,
+            radiance: DVec3::splat(2.0),
+        };
+        let mut s = Sampler::new(1, 0, 0, 0);
+        let n = 200_000;
+        let mut e = 0.0;
+        for _ in 0..n {
+            let sample = light.sample_incident(DVec3::ZERO, s.next_2d()).unwrap();
+            let hit = DVec3::ZERO + sample.dir * sample.distance;
+            assert!(((hit - DVec3::new(0.0, 0.0, 3.0)).length() - 0.7).abs() < 1e-6);
+            e += sample.weight.x * sample.dir.z;
+        }
+        e /= n as f64;
+        let expected = std::f64::consts::PI * 2.0 * (0.7f64 / 3.0).powi(2);
+        assert!((e - expected).abs() < 3e-3 * expected, "{e} vs {expected}");
+    }
+
+    #[test]
+    fn rays_hit_the_near_side_of_a_sphere_light() {
+        let light = Light::Sphere {
+            center: DVec3::new(0.0, 0.0, -5.0),
+            radius: 1.0,
+            radiance: DVec3::ONE,
+        };
+        let (t, _) = light.intersect(&Ray::new(DVec3::ZERO, -DVec3::Z)).unwrap();
+        assert!((t - 4.0).abs() < 1e-14);
+        assert!(light.intersect(&Ray::new(DVec3::ZERO, DVec3::Z)).is_none());
+        assert!(light.intersect(&Ray::new(DVec3::ZERO, DVec3::X)).is_none());
+        let inside = light.intersect(&Ray::new(DVec3::new(0.0, 0.0, -5.0), DVec3::X));
+        assert!((inside.unwrap().0 - 1.0).abs() < 1e-14);
+    }
+
+    #[test]
+    fn area_samples_lie_on_the_sphere_with_uniform_density() {
+        let light = Light::Sphere {
+            center: DVec3::new(1.0, 2.0, 3.0),
+            radius: 2.0,
+            radiance: DVec3::ONE,
+        };
+        let mut s = Sampler::new(5, 0, 0, 0);
+        let mut upper = 0;
+        for _ in 0..10_000 {
+            let a = light.sample_area(s.next_2d()).unwrap();
+            assert!(((a.point - DVec3::new(1.0, 2.0, 3.0)).length() - 2.0).abs() < 1e-12);
+            assert!((a.pdf_area * 16.0 * std::f64::consts::PI - 1.0).abs() < 1e-12);
+            upper += (a.normal.z > 0.0) as u32;
+        }
+        assert!((upper as f64 / 10_000.0 - 0.5).abs() < 0.03);
+    }
+
+    #[test]
+    fn bad_lights_are_rejected_by_field() {
+        let e = Light::new(&desc::Light::Sphere {
+            center: [0.0; 3],
+            radius: 0.0,
+            radiance: [1.0; 3],
+        });
+        assert!(e.unwrap_err().to_string().starts_with("radius:"));
+        let e = Light::new(&desc::Light::Point {
+            position: [0.0; 3],
+            intensity: [1.0, f64::NAN, 0.0],
+        });
+        assert!(e.unwrap_err().to_string().starts_with("intensity:"));
+    }
+}

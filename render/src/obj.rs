@@ -1,0 +1,142 @@
+//! Wavefront OBJ meshes, parsed from bytes the caller hands in (the renderer reads no files).
+//!
+//! Faces are triangulated (tobj's fan, exact for convex polygons), all groups and objects of a
+//! file become one mesh, and the file's normals are used only when every vertex has one
+//! (otherwise smooth angle-weighted normals are computed). Coordinates that are not finite and
+//! indices out of range are errors; materials (`mtllib`) are ignored.
+
+use std::io::BufReader;
+
+use glam::DVec3;
+
+use crate::mesh::{MeshError, TriangleMesh};
+
+/// Why an OBJ file could not become a mesh.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ObjError {
+    #[error("not a valid OBJ file: {0}")]
+    Parse(String),
+    #[error("a vertex has a non-finite coordinate {0:?}")]
+    NonFinite([f64; 3]),
+    #[error("{0}")]
+    Mesh(#[from] MeshError),
+}
+
+/// Parses OBJ bytes into a triangle mesh (file units, file orientation).
+pub fn parse_obj(bytes: &[u8]) -> Result<TriangleMesh, ObjError> {
+    let options = tobj::LoadOptions {
+        single_index: true,
+        triangulate: true,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    let (models, _materials) = tobj::load_obj_buf(&mut BufReader::new(bytes), &options, |_| {
+        Ok((Vec::new(), Default::default()))
+    })
+    .map_err(|e| ObjError::Parse(e.to_string()))?;
+
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    let mut all_have_normals = true;
+    let mut triangles = Vec::new();
+    for model in &models {
+        let mesh = &model.mesh;
+        let base = positions.len() as u32;
+        let count = mesh.positions.len() / 3;
+        positions.extend(
+            mesh.positions
+                .chunks_exact(3)
+                .map(|c| DVec3::new(c[0], c[1], c[2])),
+        );
+        if mesh.normals.len() == mesh.positions.len() {
+            normals.extend(
+                mesh.normals
+                    .chunks_exact(3)
+                    .map(|c| DVec3::new(c[0], c[1], c[2])),
+            );
+        } else {
+            all_have_normals = false;
+        }
+        for t in mesh.indices.chunks_exact(3) {
+            // Indices are checked here against the model's own vertices, so a bad index can
+            // never reach into another model's range.
+            if let Some(&bad) = t.iter().find(|&&i| i as usize >= count) {
+                return Err(MeshError::IndexOutOfRange {
+                    triangle: triangles.len(),
+                    index: bad,
+                    vertices: count,
+                }
+                .into());
+            }
+            triangles.push([base + t[0], base + t[1], base + t[2]]);
+        }
+    }
+    // Named by value: tobj renumbers vertices, so a mesh index would not match the file's.
+    if let Some(p) = positions.iter().find(|p| !p.is_finite()) {
+        return Err(ObjError::NonFinite(p.to_array()));
+    }
+    let normals = (all_have_normals && !normals.is_empty()).then_some(normals);
+    Ok(TriangleMesh::new(positions, normals, triangles)?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const TETRA: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+
+    #[test]
+    fn tetrahedron_is_closed_with_outward_smooth_normals() {
+        let mesh = parse_obj(TETRA.as_bytes()).unwrap();
+        let report = mesh.report();
+        assert_eq!(report.triangles, 4);
+        assert!(report.closed);
+        let centre = DVec3::splat(0.25);
+        for (p, n) in mesh.positions().iter().zip(mesh.normals()) {
+            assert!(n.dot(*p - centre) > 0.0);
+        }
+    }
+
+    #[test]
+    fn quads_are_triangulated_and_file_normals_used() {
+        let text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvn 0 0 2\nf 1//1 2//1 3//1 4//1\n";
+        let mesh = parse_obj(text.as_bytes()).unwrap();
+        assert_eq!(mesh.triangle_count(), 2);
+        assert!(mesh.normals().iter().all(|n| *n == DVec3::Z));
+        assert!(!mesh.report().closed);
+    }
+
+    #[test]
+    fn nan_and_infinite_coordinates_are_rejected() {
+        for bad in ["nan", "inf", "-inf"] {
+            let text = TETRA.replace("v 0 1 0", &format!("v 0 {bad} 0"));
+            let e = parse_obj(text.as_bytes()).unwrap_err();
+            assert!(
+                matches!(e, ObjError::NonFinite(p) if p[0] == 0.0 && !p[1].is_finite() && p[2] == 0.0),
+                "{bad}: {e}"
+            );
+        }
+    }
+
+    #[test]
+    fn out_of_range_index_and_empty_file_are_rejected() {
+        let text = TETRA.replace("f 2 3 4", "f 2 3 9");
+        let e = parse_obj(text.as_bytes()).unwrap_err();
+        assert!(!e.to_string().is_empty());
+        assert!(
+            matches!(
+                e,
+                ObjError::Parse(_) | ObjError::Mesh(MeshError::IndexOutOfRange { .. })
+            ),
+            "{e}"
+        );
+        assert_eq!(
+            parse_obj(b"").unwrap_err(),
+            ObjError::Mesh(MeshError::Empty)
+        );
+        assert_eq!(
+            parse_obj(b"v 0 0 0\nv 1 0 0\n").unwrap_err(),
+            ObjError::Mesh(MeshError::Empty)
+        );
+    }
+}

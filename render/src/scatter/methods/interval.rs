@@ -1,0 +1,89 @@
+//! The interval method of [H15] §3.2 for one camera segment and one light point: the pruned
+//! descent gives candidate triangles with trimmed `t`-ranges; on each, the per-triangle depth
+//! intervals (one per monotone branch of the solution curve, folds split; see `interval`) are
+//! sampled with `K = k` points each — the midpoint rule `t_i = t_min + (i + ½)(t_max − t_min)/K`
+//! ([H15] eqs. 18–19), or, with `jitter`, `t_i = t_min + (i + u_i)(t_max − t_min)/K` where
+//! `u_i = frac(u + i·φ)` for one uniform `u` per interval and the golden ratio φ: every `u_i` is
+//! uniform on [0, 1), so each sample is uniform in its stratum and the estimate is unbiased.
+
+use spindle_common::scene::SingleScatter;
+use spindle_common::stats::RenderStats;
+
+use crate::Rgb;
+use crate::sampler::Sampler;
+use crate::scatter::connect::Connection;
+use crate::scatter::descent::{DescentStack, for_each_candidate};
+use crate::scatter::edge_scans::EdgeScans;
+use crate::scatter::interval::{SampleRule, for_each_sample, triangle_intervals_with};
+
+/// The fractional part of the golden ratio, the stride of the jittered offsets.
+const GOLDEN: f64 = 0.618_033_988_749_894_9;
+
+/// The interval-method estimate of the segment `[0, length]` lit by the connection's light point.
+pub fn estimate(
+    connection: &Connection<'_>,
+    length: f64,
+    settings: &SingleScatter,
+    stack: &mut DescentStack,
+    sampler: &mut Sampler,
+    stats: &mut RenderStats,
+) -> Rgb {
+    let k = settings.k.max(1);
+    let tolerance = settings.newton_tolerance;
+    let ends = connection.ends;
+    let query = connection.query(0.0, length);
+    let mut sum = Rgb::ZERO;
+    // Each edge is scanned once for this query and shared by its two triangles.
+    let mut scans = EdgeScans::default();
+    let mesh = &connection.object.mesh;
+    for_each_candidate(
+        connection.object,
+        &query,
+        &settings.pruning,
+        stack,
+        stats,
+        |candidate, stats| {
+            let Some(patch) = connection.patch(candidate.triangle) else {
+                return;
+            };
+            let (t_lo, t_hi) = (candidate.t_lo, candidate.t_hi);
+            let edge_scan = |edge| scans.scan(mesh, candidate.triangle, edge, &ends);
+            let intervals =
+                triangle_intervals_with(&patch, &ends, t_lo, t_hi, tolerance, edge_scan, stats);
+            for interval in intervals.iter() {
+                let u = if settings.jitter {
+                    sampler.next_f64()
+                } else {
+                    0.5
+                };
+                let jitter = settings.jitter;
+                let rule = SampleRule {
+                    k,
+                    offset: move |i: u32| {
+                        if jitter {
+                            (u + f64::from(i) * GOLDEN).fract()
+                        } else {
+                            0.5
+                        }
+                    },
+                };
+                // Visibility rays are counted apart: `for_each_sample` holds `stats`.
+                let mut visibility = RenderStats::default();
+                for_each_sample(
+                    &patch,
+                    &ends,
+                    interval,
+                    &rule,
+                    tolerance,
+                    stats,
+                    |path, weight| {
+                        sum += weight
+                            * connection.path_radiance(candidate.triangle, path, &mut visibility);
+                    },
+                );
+                stats.add(&visibility);
+            }
+        },
+    );
+    sum
+}

@@ -1,0 +1,72 @@
+//! Point sampling ([WZHB09]; physics.md §1.1, "point sampling"): `M = samples_per_segment`
+//! stratified, jittered camera points `t_j` along the segment; at each, every refraction path
+//! through every candidate triangle of the pruned descent (a fixed-`t` Newton solve per triangle
+//! from the straight-line starting guess); the estimate is `(ℓ/M) Σ_j Σ_k C_k(t_j)`, i.e.
+//! `q(t) = 1/ℓ`.
+//!
+//! Each candidate triangle is solved from the straight-line guess, and from the centroid where
+//! that finds no valid path (the straight-line guess alone missed 27 of 512 solutions on a glass
+//! icosphere: Newton leaves the triangle). At most one solution per triangle is kept; a triangle
+//! with two (near a fold) loses one, the method's known limitation that `reference` exposes.
+
+use spindle_common::scene::SingleScatter;
+use spindle_common::stats::RenderStats;
+
+use super::CENTROID;
+use crate::Rgb;
+use crate::sampler::Sampler;
+use crate::scatter::connect::Connection;
+use crate::scatter::descent::{DescentStack, for_each_candidate};
+use crate::scatter::solve::{NewtonSettings, RefractionPath, Slice, newton, straight_line_guess};
+
+/// The point-sampling estimate of the segment `[0, length]` lit by the connection's light point.
+pub fn estimate(
+    connection: &Connection<'_>,
+    length: f64,
+    settings: &SingleScatter,
+    stack: &mut DescentStack,
+    sampler: &mut Sampler,
+    stats: &mut RenderStats,
+) -> Rgb {
+    let m = settings.samples_per_segment.max(1);
+    let newton_settings = NewtonSettings::new(settings.newton_tolerance, (0.0, length));
+    let mut sum = Rgb::ZERO;
+    for j in 0..m {
+        let t = (j as f64 + sampler.next_f64()) / m as f64 * length;
+        let query = connection.query(t, t);
+        for_each_candidate(
+            connection.object,
+            &query,
+            &settings.pruning,
+            stack,
+            stats,
+            |candidate, stats| {
+                let Some(patch) = connection.patch(candidate.triangle) else {
+                    return;
+                };
+                // The straight-line guess first; where it finds nothing valid, the centroid.
+                let guess = straight_line_guess(&patch, &connection.ends, t);
+                for start in guess.into_iter().chain(std::iter::once(CENTROID)) {
+                    let slice = Slice::fixed_t(t);
+                    let (zero, evaluations) =
+                        newton(&patch, &connection.ends, &slice, start, &newton_settings);
+                    stats.newton_iterations += u64::from(evaluations);
+                    let Some(zero) = zero else {
+                        stats.newton_failures += 1;
+                        continue;
+                    };
+                    let (a, b) = (zero.x[1], zero.x[2]);
+                    let ends = &connection.ends;
+                    if let Some(path) =
+                        RefractionPath::from_zero(&patch, ends, t, a, b, &zero.residual)
+                    {
+                        stats.samples += 1;
+                        sum += connection.path_radiance(candidate.triangle, &path, stats);
+                        break;
+                    }
+                }
+            },
+        );
+    }
+    sum * (length / f64::from(m))
+}

@@ -1,0 +1,110 @@
+//! The straight-line model ([H15] App. B.3): light from the light point reaches the camera point
+//! `V` along the straight line `L → V`, crossing the object's boundary once without bending.
+//!
+//! Per camera point: the first boundary hit `X` from `V` toward `L` must be the object's own; the
+//! light is attenuated over the inside part `‖X − V‖`, transmitted with the Fresnel factor of the
+//! line's angle to the shading normal at `X` (as light arriving from the air), and spread as from a
+//! point: `D = ‖L − V‖²`. A shadow ray runs from `X` to `L`. So
+//! `C(t) = σ_s p(cos θ) T(X) I e^{−σ_t (t + ‖X − V‖)} / ‖L − V‖²`.
+//!
+//! There is **no η²** here: along an unbent line there is no solid-angle compression, and the
+//! model then gives the correct irradiance in the limit of a camera point right under the surface
+//! lit at normal incidence (`T I / d_L²`). At η = 1 the model is the exact single-scattering
+//! integral (`T = 1`, `D = ‖L − V‖²`, physics.md §1.2), which is why `auto` uses it there.
+//!
+//! Camera points are drawn by *equiangular* sampling about the light point (the substitution
+//! `t = x0 + h tan u` of physics.md §4), stratified in `u` into `M = samples_per_segment` strata
+//! and jittered: for an isotropic, non-absorbing medium at η = 1 every sample is then exact.
+
+use spindle_common::scene::SingleScatter;
+use spindle_common::stats::RenderStats;
+
+use crate::Rgb;
+use crate::fresnel::reflectance;
+use crate::ray::Ray;
+use crate::sampler::Sampler;
+use crate::scatter::connect::Connection;
+
+/// The straight-line estimate of the segment `[0, length]` lit by the connection's light point.
+pub fn estimate(
+    connection: &Connection<'_>,
+    length: f64,
+    settings: &SingleScatter,
+    sampler: &mut Sampler,
+    stats: &mut RenderStats,
+) -> Rgb {
+    let m = settings.samples_per_segment.max(1);
+    let ends = connection.ends;
+    let light = connection.light.position();
+    // Equiangular parameters: foot of the perpendicular from L, and its distance h.
+    let x0 = (light - ends.origin).dot(ends.dir);
+    let h = (light - ends.origin - x0 * ends.dir).length();
+    let equiangular = h > 1e-9 * (length + x0.abs()) && length > 0.0;
+    let (u0, u1) = ((-x0).atan2(h), (length - x0).atan2(h));
+    let mut sum = Rgb::ZERO;
+    for j in 0..m {
+        let xi = (j as f64 + sampler.next_f64()) / f64::from(m);
+        let (t, weight) = if equiangular {
+            let u = u0 + xi * (u1 - u0);
+            let t = (x0 + h * u.tan()).clamp(0.0, length);
+            let d2 = h * h + (t - x0) * (t - x0);
+            // 1/q(t) with q(t) = h / ((u1 − u0) d²).
+            (t, (u1 - u0) * d2 / h)
+        } else {
+            (xi * length, length)
+        };
+        sum += weight * point_radiance(connection, t, stats);
+    }
+    sum / f64::from(m)
+}
+
+/// `C(t)` of the module doc at the camera point `V(t)`.
+fn point_radiance(connection: &Connection<'_>, t: f64, stats: &mut RenderStats) -> Rgb {
+    let ends = connection.ends;
+    let v = ends.camera_point(t);
+    let light = connection.light.position();
+    let to_light = light - v;
+    let distance = to_light.length();
+    let Some(dir) = to_light.try_normalize() else {
+        return Rgb::ZERO;
+    };
+    // Where the line leaves the object: the first boundary hit, which must be the object's own.
+    stats.shadow_rays += 1;
+    let Some(hit) = connection
+        .scene
+        .bvh()
+        .closest_hit_within(&Ray::new(v, dir), distance)
+    else {
+        // No boundary between V and L (an open mesh, or a leak through an edge): nothing to cross.
+        return Rgb::ZERO;
+    };
+    let (object, triangle) = connection.scene.locate(hit.triangle);
+    if object != connection.object_index {
+        return Rgb::ZERO;
+    }
+    let mesh = &connection.object.mesh;
+    let x = mesh.point(triangle, hit.a, hit.b);
+    let transmittance = if ends.eta == 1.0 {
+        1.0
+    } else {
+        let cos = dir.dot(mesh.shading_normal(triangle, hit.a, hit.b));
+        if cos <= 0.0 {
+            return Rgb::ZERO;
+        }
+        1.0 - reflectance(cos, ends.eta)
+    };
+    let intensity = connection.light.intensity_toward(v);
+    stats.samples += 1;
+    if transmittance <= 0.0 || intensity.max_element() <= 0.0 {
+        return Rgb::ZERO;
+    }
+    if !connection.light_reaches(triangle, x, dir, stats) {
+        return Rgb::ZERO;
+    }
+    let medium = connection.medium;
+    // Light propagates at V along −dir; the camera receives along −r̂: cos θ = (−dir)·(−r̂).
+    let phase = medium.phase.eval(dir.dot(ends.dir));
+    let inside = hit.t;
+    let attenuation = (-(t + inside) * medium.sigma_t).exp();
+    medium.sigma_s * intensity * attenuation * (phase * transmittance / (distance * distance))
+}

@@ -1,0 +1,127 @@
+//! Single scattering through a refractive triangle-mesh boundary ([H15], physics.md).
+//!
+//! Entry point: [`single_scatter`], called by the transport for every camera segment inside a
+//! medium. For each light it draws one light point (`light_sample`), then runs the model the
+//! object's [`plan`] names: the interval method, point sampling, the straight-line model or the
+//! brute-force reference (`methods`), all sharing the pruned BVH descent (`prune`, `descent`) and
+//! the connection with its visibility tests (`connect`). [`describe_plan`] says in words which
+//! model runs for each object.
+//!
+//! The per-triangle mathematics lives here too, in f64 and independent of the scene:
+//! a triangle with interpolated normals ([`patch`]), the fixed ends of a path ([`ends`]),
+//! the damped Newton solver for refraction points ([`solve`]), the distance factor D
+//! ([`distance`]) and the contribution of one path ([`contribution`]); the interval method's edge
+//! crossings ([`edge`]) and per-triangle monotone branches, folds included ([`interval`]).
+//!
+//! Sign conventions, stated once for all of these modules: η = n_medium / n_outside > 1 (the
+//! medium is denser); the light is outside; the shading normal points outward, toward the light;
+//! the camera segment is `V(t) = origin + t·dir` with `dir` a unit vector, so t is a distance.
+
+pub mod bounds;
+pub mod connect;
+pub mod contribution;
+pub mod descent;
+pub mod distance;
+pub mod edge;
+pub mod edge_scans;
+pub mod ends;
+pub mod interval;
+pub mod light_sample;
+pub mod methods;
+pub mod patch;
+pub mod plan;
+pub mod prune;
+pub mod small_list;
+pub mod solve;
+
+#[cfg(test)]
+pub(crate) mod ground_truth;
+#[cfg(test)]
+mod tests;
+
+use spindle_common::stats::RenderStats;
+
+use crate::Rgb;
+use crate::sampler::Sampler;
+use crate::scene::{Material, Scene};
+use crate::segment::Segment;
+use connect::Connection;
+use descent::DescentStack;
+use ends::PathEnds;
+use light_sample::sample_light;
+pub use plan::describe_plan;
+use plan::{Model, object_bounds, plan_for};
+
+/// Radiance arriving at `segment.origin`, inside the medium, travelling toward the camera (along
+/// `−segment.dir`), from light scattered once along the segment: the sum over the scene's lights
+/// of one light point each. It includes the η² of physics.md eq. 1 and not the Fresnel factor of
+/// the camera path's entry (both of which the segment's throughput carries as `T/η²`).
+pub fn single_scatter(
+    scene: &Scene,
+    segment: &Segment,
+    sampler: &mut Sampler,
+    stats: &mut RenderStats,
+) -> Rgb {
+    let object = &scene.objects()[segment.object];
+    let Material::Dielectric(dielectric) = object.material else {
+        return Rgb::ZERO;
+    };
+    let plan = plan_for(scene, object);
+    let Some(bounds) = object_bounds(object) else {
+        return Rgb::ZERO;
+    };
+    if plan.model == Model::Skip || !segment.length.is_finite() || segment.length <= 0.0 {
+        return Rgb::ZERO;
+    }
+    let medium = dielectric.medium;
+    let settings = &scene.integrator().single_scatter;
+    let mut stack = DescentStack::default();
+    let mut total = Rgb::ZERO;
+    for light in scene.lights() {
+        let light = sample_light(light, bounds, sampler.next_2d());
+        if light.is_black() {
+            continue;
+        }
+        let connection = Connection {
+            scene,
+            object_index: segment.object,
+            object,
+            ends: PathEnds {
+                origin: segment.origin,
+                dir: segment.dir,
+                light: light.position(),
+                eta: dielectric.eta,
+            },
+            medium,
+            light,
+        };
+        let length = segment.length;
+        total += match plan.model {
+            Model::Skip => Rgb::ZERO,
+            Model::Interval => methods::interval::estimate(
+                &connection,
+                length,
+                settings,
+                &mut stack,
+                sampler,
+                stats,
+            ),
+            Model::PointSampling => methods::point_sampling::estimate(
+                &connection,
+                length,
+                settings,
+                &mut stack,
+                sampler,
+                stats,
+            ),
+            Model::StraightLine => {
+                methods::straight_line::estimate(&connection, length, settings, sampler, stats)
+            }
+            Model::Reference => {
+                methods::reference::estimate(&connection, length, settings, sampler, stats)
+            }
+        };
+    }
+    debug_assert!(total.is_finite(), "single_scatter: {total}");
+    total
+}

@@ -1,0 +1,148 @@
+//! Which single-scattering model runs for an object, and why: the `auto` method's choice, and the
+//! explicit methods' resolution, said in words for the render log and the EXR header.
+//!
+//! `auto` models only what the scene requires:
+//! * nothing at all where nothing can scatter: an opaque object, a medium with σ_s = 0 (albedo 0
+//!   or σ_t = 0), or a scene without lights;
+//! * η = 1 exactly: the boundary does not bend light, so the straight path is exact and no
+//!   refraction is solved (`straight_line`, physics.md §1.2, §4);
+//! * a medium much thicker than the object (`σ_t · diameter ≥ 30` in every channel, the paper's
+//!   App. B.3 observation that the straight-line model is then close), only when
+//!   `auto_tolerance > 0` allows an approximation: `straight_line`;
+//! * otherwise the interval method of [H15]. Where an object's normals are flat the per-triangle
+//!   solver uses the closed-form D (physics.md eq. 3) by itself; the plan says so.
+
+use spindle_common::scene::{ScatterMethod, SingleScatter};
+
+use super::prune::BoundingSphere;
+use crate::scene::{Material, Object, Scene};
+
+/// Object size in mean free paths above which `auto` may use the straight-line model ([H15]
+/// App. B.3: the straight-line approximation is close to the reference above 30 mfp).
+pub const THICK_MEAN_FREE_PATHS: f64 = 30.0;
+
+/// The model that runs for an object.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Model {
+    /// Nothing scatters (or the method is `none`): black.
+    Skip,
+    Interval,
+    PointSampling,
+    StraightLine,
+    Reference,
+}
+
+/// A model and the reason it was chosen.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Plan {
+    pub model: Model,
+    pub reason: &'static str,
+}
+
+/// The plan for `object` of `scene` under the integrator settings.
+pub fn plan_for(scene: &Scene, object: &Object) -> Plan {
+    let settings = &scene.integrator().single_scatter;
+    let skip = |reason| Plan {
+        model: Model::Skip,
+        reason,
+    };
+    let Material::Dielectric(dielectric) = object.material else {
+        return skip("opaque: no medium");
+    };
+    let medium = dielectric.medium;
+    let explicit = |model, reason| Plan { model, reason };
+    match settings.method {
+        ScatterMethod::None => return skip("method none"),
+        ScatterMethod::Interval => return explicit(Model::Interval, "method interval"),
+        ScatterMethod::PointSampling => {
+            return explicit(Model::PointSampling, "method point_sampling");
+        }
+        ScatterMethod::StraightLine => {
+            return explicit(Model::StraightLine, "method straight_line");
+        }
+        ScatterMethod::Reference => return explicit(Model::Reference, "method reference"),
+        ScatterMethod::Auto => {}
+    }
+    if scene.lights().is_empty() {
+        return skip("auto: no lights");
+    }
+    if medium.sigma_s.max_element() <= 0.0 {
+        return skip("auto: sigma_s = 0 (albedo 0 or sigma_t 0), nothing scatters");
+    }
+    if dielectric.eta == 1.0 {
+        return Plan {
+            model: Model::StraightLine,
+            reason: "auto: eta = 1, the straight path is exact (no refraction solve)",
+        };
+    }
+    if is_thick(object, medium.sigma_t.min_element(), settings) {
+        return Plan {
+            model: Model::StraightLine,
+            reason: "auto: medium >= 30 mean free paths across the object and auto_tolerance > 0",
+        };
+    }
+    Plan {
+        model: Model::Interval,
+        reason: "auto: refractive boundary",
+    }
+}
+
+/// Whether the straight-line model is allowed for an optically thick object.
+fn is_thick(object: &Object, sigma_t_min: f64, settings: &SingleScatter) -> bool {
+    settings.auto_tolerance > 0.0
+        && object_bounds(object)
+            .is_some_and(|b| sigma_t_min * 2.0 * b.radius >= THICK_MEAN_FREE_PATHS)
+}
+
+/// The bounding sphere of an object (from its BVH root box); `None` for an empty object.
+pub fn object_bounds(object: &Object) -> Option<BoundingSphere> {
+    if object.bvh.nodes().is_empty() {
+        return None;
+    }
+    let (lo, hi) = object.bvh.node_bounds(0);
+    Some(BoundingSphere::of_box(lo, hi))
+}
+
+/// Whether every vertex normal of the object equals its triangle's geometric normal (to 1e-9),
+/// so D has the closed flat form everywhere.
+fn has_flat_normals(object: &Object) -> bool {
+    let mesh = &object.mesh;
+    (0..mesh.triangle_count()).all(|i| {
+        let Some(ng) = mesh.geometric_normal(i).try_normalize() else {
+            return true;
+        };
+        mesh.corner_normals(i).iter().all(|n| n.distance(ng) < 1e-9)
+    })
+}
+
+/// One line per object saying which single-scattering model runs and why, for the render log
+/// and the EXR header (`objects[i]: interval (auto: refractive boundary; shading normals, D
+/// from ray differentials)`).
+pub fn describe_plan(scene: &Scene) -> Vec<String> {
+    scene
+        .objects()
+        .iter()
+        .enumerate()
+        .map(|(i, object)| {
+            let plan = plan_for(scene, object);
+            let model = match plan.model {
+                Model::Skip => "none",
+                Model::Interval => "interval",
+                Model::PointSampling => "point_sampling",
+                Model::StraightLine => "straight_line",
+                Model::Reference => "reference",
+            };
+            let normals = match plan.model {
+                Model::Interval | Model::PointSampling | Model::Reference => {
+                    if has_flat_normals(object) {
+                        "; flat normals, closed-form D"
+                    } else {
+                        "; shading normals, D from ray differentials"
+                    }
+                }
+                _ => "",
+            };
+            format!("objects[{i}]: {model} ({}{normals})", plan.reason)
+        })
+        .collect()
+}

@@ -1,0 +1,558 @@
+//! The renderer's scene: validated, world-space, ready to trace.
+//!
+//! [`Scene::build`] turns the JSON description (`spindle_common::scene::Scene`) and the bytes of
+//! its OBJ files ([`Assets`]) into meshes in world space, one BVH per object (for an
+//! integrator's per-object descent), one scene-wide BVH over every triangle (for camera, shadow
+//! and visibility rays), materials, lights and the camera. Every value is checked on the way in:
+//! a bad one is a [`SceneError`] naming its JSON path. Problems that still render (an open
+//! dielectric mesh, degenerate triangles) are collected in [`Scene::warnings`].
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+use rayon::prelude::*;
+use spindle_common::scene as desc;
+
+use crate::Rgb;
+use crate::bvh::Bvh;
+use crate::camera::Camera;
+use crate::light::Light;
+use crate::medium::Medium;
+use crate::mesh::{MeshReport, TriangleMesh};
+use crate::obj::parse_obj;
+use crate::procedural::{MAX_SUBDIVISIONS, bumpy_sphere, icosphere};
+use crate::scatter::bounds::PruneBounds;
+use crate::transform::Transform;
+
+/// The bytes of each `obj` shape's file, keyed by the shape's `path` string exactly as written
+/// in the scene. The caller reads the files (or fetches them by hash); the renderer reads none.
+pub type Assets = HashMap<String, Vec<u8>>;
+
+/// A scene value that cannot be rendered, with the JSON path of the culprit.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{path}: {problem}")]
+pub struct SceneError {
+    /// JSON path, e.g. `objects[0].material.medium.sigma_t`.
+    pub path: String,
+    pub problem: String,
+}
+
+impl SceneError {
+    fn new(path: impl Into<String>, problem: impl ToString) -> SceneError {
+        SceneError {
+            path: path.into(),
+            problem: problem.to_string(),
+        }
+    }
+
+    /// An error of a part whose own message starts with a field name (`sigma_t: must be ...`):
+    /// the field joins the path (`objects[0].material.medium.sigma_t`).
+    fn nested(path: impl Into<String>, problem: impl ToString) -> SceneError {
+        let (path, problem) = (path.into(), problem.to_string());
+        match problem.split_once(": ") {
+            Some((field, rest))
+                if !field.is_empty()
+                    && field
+                        .chars()
+                        .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '.') =>
+            {
+                SceneError::new(format!("{path}.{field}"), rest)
+            }
+            _ => SceneError::new(path, problem),
+        }
+    }
+}
+
+/// A smooth refractive interface around a homogeneous medium. `eta` = n_medium / n_air ≥ 1.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Dielectric {
+    pub eta: f64,
+    pub medium: Medium,
+}
+
+/// What an object is made of.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Material {
+    Dielectric(Dielectric),
+    /// Opaque Lambertian, lit directly by every light (no indirect light).
+    Diffuse {
+        reflectance: Rgb,
+    },
+}
+
+/// One object in world space.
+#[derive(Debug, Clone)]
+pub struct Object {
+    /// `objects[i]`, for messages.
+    pub name: String,
+    pub mesh: TriangleMesh,
+    /// A BVH over this object's triangles alone; hits report indices into `mesh`.
+    pub bvh: Bvh,
+    /// Spheres, normal cones and planes of its triangles and BVH nodes, for the single-scattering
+    /// descent.
+    pub bounds: PruneBounds,
+    pub material: Material,
+    pub report: MeshReport,
+}
+
+/// A short description of a built scene, for logs and EXR headers.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneSummary {
+    pub objects: usize,
+    pub triangles: usize,
+    pub lights: usize,
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub warnings: Vec<String>,
+}
+
+/// The largest `max_depth` accepted (a camera path recurses once per bounce).
+pub const MAX_DEPTH_LIMIT: u32 = 256;
+
+/// A scene ready to render.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    objects: Vec<Object>,
+    bvh: Bvh,
+    /// `first_triangle[o]` is the scene-wide index of object `o`'s first triangle.
+    first_triangle: Vec<u32>,
+    lights: Vec<Light>,
+    camera: Camera,
+    film: desc::Film,
+    background: Rgb,
+    integrator: desc::Integrator,
+    scale: f64,
+    warnings: Vec<String>,
+}
+
+impl Scene {
+    /// Builds the scene; OBJ shapes are looked up in `assets` by their `path` string.
+    pub fn build(scene: &desc::Scene, assets: &Assets) -> Result<Scene, SceneError> {
+        // The scene format's own rules first (the same checks `Scene::from_json` applies), so
+        // a description that did not come through JSON is held to them too.
+        scene
+            .validate()
+            .map_err(|e| SceneError::new(e.path, e.problem))?;
+        let film = scene.film.clone();
+        if film.spp == 0 {
+            return Err(SceneError::new("film.spp", "must be >= 1"));
+        }
+        let camera = Camera::new(&scene.camera, film.width, film.height).map_err(|e| match e {
+            crate::camera::CameraError::Size(..) => SceneError::new("film", e),
+            _ => SceneError::nested("camera", e),
+        })?;
+        let background = DVec3::from_array(scene.background);
+        if !background.is_finite() || background.min_element() < 0.0 {
+            return Err(SceneError::new("background", "must be finite and >= 0"));
+        }
+        let integrator = scene.integrator.clone();
+        if integrator.max_depth > MAX_DEPTH_LIMIT {
+            return Err(SceneError::new(
+                "integrator.max_depth",
+                format!("must be <= {MAX_DEPTH_LIMIT}"),
+            ));
+        }
+        let lights = scene
+            .lights
+            .iter()
+            .enumerate()
+            .map(|(i, l)| Light::new(l).map_err(|e| SceneError::nested(format!("lights[{i}]"), e)))
+            .collect::<Result<Vec<_>, _>>()?;
+
+        let objects = scene
+            .objects
+            .par_iter()
+            .enumerate()
+            .map(|(i, o)| build_object(i, o, assets))
+            .collect::<Result<Vec<_>, _>>()?;
+
+        let mut warnings = Vec::new();
+        for (o, d) in objects.iter().zip(&scene.objects) {
+            let what = match &d.shape {
+                desc::Shape::Obj { path } => format!("{} ({path})", o.name),
+                _ => o.name.clone(),
+            };
+            if matches!(o.material, Material::Dielectric(_)) && !o.report.closed {
+                warnings.push(format!(
+                    "{what}: the dielectric mesh is not closed ({} boundary edges); rays that \
+                     leave through a hole are treated as leaving the object",
+                    o.report.boundary_edges
+                ));
+            }
+            if o.report.degenerate > 0 {
+                warnings.push(format!(
+                    "{what}: {} degenerate triangles (never hit)",
+                    o.report.degenerate
+                ));
+            }
+        }
+
+        let mut first_triangle = Vec::with_capacity(objects.len());
+        let mut all = Vec::new();
+        for o in &objects {
+            first_triangle.push(all.len() as u32);
+            all.extend((0..o.mesh.triangle_count()).map(|t| o.mesh.corners(t)));
+        }
+        if all.len() > u32::MAX as usize / 2 {
+            return Err(SceneError::new("objects", "too many triangles"));
+        }
+        let bvh = Bvh::build(&all);
+
+        let scale = objects
+            .iter()
+            .map(|o| {
+                let (lo, hi) = o.mesh.bounds();
+                (hi - lo)
+                    .max_element()
+                    .max(lo.abs().max(hi.abs()).max_element())
+            })
+            .fold(0.0f64, f64::max);
+        let scale = if scale > 0.0 && scale.is_finite() {
+            scale
+        } else {
+            1.0
+        };
+
+        Ok(Scene {
+            objects,
+            bvh,
+            first_triangle,
+            lights,
+            camera,
+            film,
+            background,
+            integrator,
+            scale,
+            warnings,
+        })
+    }
+
+    pub fn objects(&self) -> &[Object] {
+        &self.objects
+    }
+
+    /// The BVH over every object's triangles; hit indices are scene-wide, see [`Scene::locate`].
+    pub fn bvh(&self) -> &Bvh {
+        &self.bvh
+    }
+
+    /// `(object, triangle within the object)` of a scene-wide triangle index.
+    pub fn locate(&self, triangle: u32) -> (usize, usize) {
+        let object = self.first_triangle.partition_point(|&f| f <= triangle) - 1;
+        (object, (triangle - self.first_triangle[object]) as usize)
+    }
+
+    pub fn lights(&self) -> &[Light] {
+        &self.lights
+    }
+
+    pub fn camera(&self) -> &Camera {
+        &self.camera
+    }
+
+    pub fn film(&self) -> &desc::Film {
+        &self.film
+    }
+
+    pub fn background(&self) -> Rgb {
+        self.background
+    }
+
+    pub fn integrator(&self) -> &desc::Integrator {
+        &self.integrator
+    }
+
+    /// The size of the scene's geometry (largest of its extent and its largest coordinate), the
+    /// unit of every geometric tolerance (see `ray::Ray::leaving`).
+    pub fn scale(&self) -> f64 {
+        self.scale
+    }
+
+    /// Problems that do not stop the render (open dielectric meshes, degenerate triangles).
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.bvh.triangle_count()
+    }
+
+    pub fn summary(&self) -> SceneSummary {
+        SceneSummary {
+            objects: self.objects.len(),
+            triangles: self.triangle_count(),
+            lights: self.lights.len(),
+            width: self.film.width,
+            height: self.film.height,
+            spp: self.film.spp,
+            warnings: self.warnings.clone(),
+        }
+    }
+}
+
+fn build_object(
+    index: usize,
+    object: &desc::Object,
+    assets: &Assets,
+) -> Result<Object, SceneError> {
+    let name = format!("objects[{index}]");
+    let field = |f: &str| format!("{name}.{f}");
+    let positive = |f: &str, v: f64| {
+        if v.is_finite() && v > 0.0 {
+            Ok(())
+        } else {
+            Err(SceneError::new(
+                field(f),
+                format!("must be finite and > 0, got {v}"),
+            ))
+        }
+    };
+    let subdivisions = |s: u32| {
+        if s <= MAX_SUBDIVISIONS {
+            Ok(())
+        } else {
+            Err(SceneError::new(
+                field("shape.subdivisions"),
+                format!("must be <= {MAX_SUBDIVISIONS}, got {s}"),
+            ))
+        }
+    };
+    let local = match &object.shape {
+        desc::Shape::Obj { path } => {
+            let bytes = assets.get(path).ok_or_else(|| {
+                SceneError::new(
+                    field("shape.path"),
+                    format!("no file was supplied for {path:?}"),
+                )
+            })?;
+            parse_obj(bytes)
+                .map_err(|e| SceneError::new(field("shape.path"), format!("{path}: {e}")))?
+        }
+        &desc::Shape::Icosphere {
+            radius,
+            subdivisions: s,
+        } => {
+            positive("shape.radius", radius)?;
+            subdivisions(s)?;
+            icosphere(radius, s)
+        }
+        &desc::Shape::BumpySphere {
+            radius,
+            subdivisions: s,
+            amplitude,
+            frequency,
+            seed,
+        } => {
+            positive("shape.radius", radius)?;
+            subdivisions(s)?;
+            if !(amplitude.is_finite() && amplitude.abs() < 1.0) {
+                return Err(SceneError::new(
+                    field("shape.amplitude"),
+                    format!("must be in (-1, 1), got {amplitude}"),
+                ));
+            }
+            if !(frequency.is_finite() && frequency >= 0.0) {
+                return Err(SceneError::new(
+                    field("shape.frequency"),
+                    format!("must be finite and >= 0, got {frequency}"),
+                ));
+            }
+            bumpy_sphere(radius, s, amplitude, frequency, seed)
+        }
+    };
+    let transform =
+        Transform::new(&object.transform).map_err(|e| SceneError::nested(field("transform"), e))?;
+    let mesh = transform.apply(&local);
+    if mesh.positions().iter().any(|p| !p.is_finite()) {
+        return Err(SceneError::new(
+            field("transform"),
+            "moves vertices to infinity",
+        ));
+    }
+    let material = match &object.material {
+        desc::Material::Dielectric { eta, medium } => {
+            if !(eta.is_finite() && *eta >= 1.0) {
+                return Err(SceneError::new(
+                    field("material.eta"),
+                    format!("must be finite and >= 1 (denser than air), got {eta}"),
+                ));
+            }
+            Material::Dielectric(Dielectric {
+                eta: *eta,
+                medium: Medium::new(medium)
+                    .map_err(|e| SceneError::nested(field("material.medium"), e))?,
+            })
+        }
+        desc::Material::Diffuse { reflectance } => {
+            let r = DVec3::from_array(*reflectance);
+            if !r.is_finite() || r.min_element() < 0.0 || r.max_element() > 1.0 {
+                return Err(SceneError::new(
+                    field("material.reflectance"),
+                    "every component must be in [0, 1]",
+                ));
+            }
+            Material::Diffuse { reflectance: r }
+        }
+    };
+    let triangles: Vec<[DVec3; 3]> = (0..mesh.triangle_count())
+        .map(|t| mesh.corners(t))
+        .collect();
+    let bvh = Bvh::build(&triangles);
+    Ok(Object {
+        name,
+        bounds: PruneBounds::build(&mesh, &bvh),
+        bvh,
+        report: mesh.report(),
+        mesh,
+        material,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene_json(objects: &str, lights: &str) -> desc::Scene {
+        serde_json::from_str(&format!(
+            r#"{{ "camera": {{ "position": [0, 0, 5], "look_at": [0, 0, 0], "fov_y": 30 }},
+                 "film": {{ "width": 8, "height": 6 }},
+                 "lights": [{lights}], "objects": [{objects}] }}"#
+        ))
+        .unwrap()
+    }
+
+    const GLASS: &str = r#""material": { "type": "dielectric", "eta": 1.5,
+        "medium": { "sigma_t": [1, 1, 1], "albedo": [0.5, 0.5, 0.5] } }"#;
+    const OPEN_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+
+    fn error(objects: &str, lights: &str, assets: &Assets) -> String {
+        Scene::build(&scene_json(objects, lights), assets)
+            .unwrap_err()
+            .to_string()
+    }
+
+    #[test]
+    fn bad_values_are_named_by_json_path() {
+        let none = Assets::new();
+        let ico = |extra: &str| {
+            format!(
+                r#"{{ "shape": {{ "type": "icosphere", "radius": 1, "subdivisions": 1 }}, {extra} }}"#
+            )
+        };
+        let cases = [
+            (
+                ico(&GLASS.replace("1.5", "0.8")),
+                "",
+                "objects[0].material.eta",
+            ),
+            (
+                ico(&GLASS.replace("[1, 1, 1]", "[1, -1, 1]")),
+                "",
+                "objects[0].material.medium.sigma_t",
+            ),
+            (
+                ico(&GLASS.replace(
+                    r#""albedo": [0.5, 0.5, 0.5]"#,
+                    r#""albedo": [0.5, 0.5, 0.5], "phase": { "type": "hg", "g": -1 }"#,
+                )),
+                "",
+                "objects[0].material.medium.phase.g",
+            ),
+            (
+                format!(
+                    r#"{{ "shape": {{ "type": "icosphere", "radius": 0, "subdivisions": 1 }}, {GLASS} }}"#
+                ),
+                "",
+                "objects[0].shape.radius",
+            ),
+            (
+                format!(
+                    r#"{{ "shape": {{ "type": "icosphere", "radius": 1, "subdivisions": 40 }}, {GLASS} }}"#
+                ),
+                "",
+                "objects[0].shape.subdivisions",
+            ),
+            (
+                format!(
+                    r#"{{ "shape": {{ "type": "bumpy_sphere", "radius": 1, "subdivisions": 1, "amplitude": 1.5, "frequency": 2 }}, {GLASS} }}"#
+                ),
+                "",
+                "objects[0].shape.amplitude",
+            ),
+            (
+                ico(&format!(
+                    r#""transform": {{ "scale": [1, 0, 1] }}, {GLASS}"#
+                )),
+                "",
+                "objects[0].transform.scale",
+            ),
+            (
+                ico(r#""material": { "type": "diffuse", "reflectance": [2, 0, 0] }"#),
+                "",
+                "objects[0].material.reflectance",
+            ),
+            (
+                format!(r#"{{ "shape": {{ "type": "obj", "path": "missing.obj" }}, {GLASS} }}"#),
+                "",
+                r#"objects[0].shape.path: no file was supplied for "missing.obj""#,
+            ),
+            (
+                String::new(),
+                r#"{ "type": "sphere", "center": [0, 0, 0], "radius": -1, "radiance": [1, 1, 1] }"#,
+                "lights[0].radius",
+            ),
+            (
+                String::new(),
+                r#"{ "type": "point", "position": [0, 0, 0], "intensity": [1, -1, 1] }"#,
+                "lights[0].intensity",
+            ),
+        ];
+        for (objects, lights, expected) in cases {
+            let e = error(&objects, lights, &none);
+            assert!(e.starts_with(expected), "expected {expected:?}, got {e:?}");
+        }
+        let mut bad_obj = Assets::new();
+        bad_obj.insert(
+            "bad.obj".into(),
+            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n".to_vec(),
+        );
+        let e = error(
+            &format!(r#"{{ "shape": {{ "type": "obj", "path": "bad.obj" }}, {GLASS} }}"#),
+            "",
+            &bad_obj,
+        );
+        assert!(e.starts_with("objects[0].shape.path: bad.obj: "), "{e}");
+    }
+
+    #[test]
+    fn camera_and_film_errors_are_named() {
+        let mut d = scene_json("", "");
+        d.camera.fov_y = 0.0;
+        let e = Scene::build(&d, &Assets::new()).unwrap_err().to_string();
+        assert!(e.starts_with("camera.fov_y"), "{e}");
+        let mut d = scene_json("", "");
+        d.film.spp = 0;
+        let e = Scene::build(&d, &Assets::new()).unwrap_err().to_string();
+        assert!(e.starts_with("film.spp"), "{e}");
+    }
+
+    #[test]
+    fn open_dielectric_mesh_is_a_warning_and_triangles_are_located() {
+        let assets = Assets::from([("open.obj".to_string(), OPEN_OBJ.as_bytes().to_vec())]);
+        let objects = format!(
+            r#"{{ "shape": {{ "type": "icosphere", "radius": 1, "subdivisions": 1 }}, {GLASS} }},
+               {{ "shape": {{ "type": "obj", "path": "open.obj" }}, {GLASS} }}"#
+        );
+        let scene = Scene::build(&scene_json(&objects, ""), &assets).unwrap();
+        assert_eq!(scene.warnings().len(), 1);
+        assert!(scene.warnings()[0].starts_with(
+            "objects[1] (open.obj): the dielectric mesh is not closed (3 boundary edges)"
+        ));
+        assert_eq!(scene.triangle_count(), 81);
+        assert_eq!(scene.locate(0), (0, 0));
+        assert_eq!(scene.locate(79), (0, 79));
+        assert_eq!(scene.locate(80), (1, 0));
+        assert_eq!(scene.summary().triangles, 81);
+    }
+}

@@ -1,0 +1,81 @@
+//! The tile driver: renders a rectangle of pixels, knowing nothing of scheduling.
+//!
+//! Each pixel averages `film.spp` camera samples; sample `s` of pixel `(x, y)` is jittered in
+//! the pixel and driven by `Sampler::new(film.seed, x, y, s)`, so a pixel's value is the same bits
+//! whichever tile, thread or worker renders it. Pixels run in parallel with rayon.
+
+use rayon::prelude::*;
+use spindle_common::stats::RenderStats;
+use spindle_common::tile::{TilePixels, TileRect};
+
+use crate::sampler::Sampler;
+use crate::scene::Scene;
+use crate::transport::{Radiance, radiance};
+
+/// The mean radiance of one pixel over its samples, and what it cost.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PixelValue {
+    pub radiance: Radiance,
+    pub stats: RenderStats,
+}
+
+/// Renders pixel `(x, y)` alone (also how `--pixel x,y` replays one pixel).
+pub fn render_pixel(scene: &Scene, x: u32, y: u32) -> PixelValue {
+    let film = scene.film();
+    let mut stats = RenderStats::default();
+    let mut sum = Radiance::default();
+    for s in 0..film.spp {
+        let mut sampler = Sampler::new(film.seed, x, y, s);
+        let [u, v] = sampler.next_2d();
+        let ray = scene.camera().ray(x as f64 + u, y as f64 + v);
+        stats.camera_rays += 1;
+        let r = radiance(scene, &ray, &mut sampler, &mut stats);
+        sum.surface += r.surface;
+        sum.single_scatter += r.single_scatter;
+    }
+    let n = film.spp.max(1) as f64;
+    PixelValue {
+        radiance: Radiance {
+            surface: sum.surface / n,
+            single_scatter: sum.single_scatter / n,
+        },
+        stats,
+    }
+}
+
+/// Renders the pixels of `rect`.
+pub fn render_tile(scene: &Scene, rect: TileRect) -> TilePixels {
+    render_tile_with_progress(scene, rect, &|_| {})
+}
+
+/// Renders the pixels of `rect`, calling `rows_done(1)` after each finished row (from any
+/// thread), for progress bars.
+pub fn render_tile_with_progress(
+    scene: &Scene,
+    rect: TileRect,
+    rows_done: &(dyn Fn(u64) + Sync),
+) -> TilePixels {
+    let rows: Vec<Vec<PixelValue>> = (0..rect.height)
+        .into_par_iter()
+        .map(|row| {
+            let values = (0..rect.width)
+                .into_par_iter()
+                .map(|col| render_pixel(scene, rect.x + col, rect.y + row))
+                .collect();
+            rows_done(1);
+            values
+        })
+        .collect();
+    let mut tile = TilePixels::black(rect);
+    for (i, value) in rows.iter().flatten().enumerate() {
+        let r = value.radiance;
+        let total = r.surface + r.single_scatter;
+        for c in 0..3 {
+            tile.total[3 * i + c] = total[c] as f32;
+            tile.surface[3 * i + c] = r.surface[c] as f32;
+            tile.single_scatter[3 * i + c] = r.single_scatter[c] as f32;
+        }
+        tile.stats.add(&value.stats);
+    }
+    tile
+}

@@ -1,0 +1,163 @@
+//! The worker's settings: raw values from the command line or the environment become a
+//! validated [`Config`], so the rest of the worker never sees a malformed URL or zero threads.
+
+use std::time::Duration;
+
+use crate::backoff::Backoff;
+
+/// A setting that cannot be used, naming it.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{field}: {problem}")]
+pub struct ConfigError {
+    pub field: &'static str,
+    pub problem: String,
+}
+
+/// Everything [`crate::run`] needs.
+#[derive(Debug, Clone)]
+pub struct Config {
+    /// The coordinator's base URL, `http://host:port` (no trailing slash).
+    pub coordinator: String,
+    /// The worker token (`SPINDLE_WORKER_TOKEN`); `None` for a coordinator without tokens.
+    pub token: Option<String>,
+    /// The name the worker registers under, for the coordinator's logs.
+    pub name: String,
+    /// Render threads: the size of the worker's own rayon pool.
+    pub threads: usize,
+    /// How long one lease request may wait at the coordinator for work.
+    pub lease_wait: Duration,
+    /// Retry policy for requests that failed for a reason that may pass.
+    pub backoff: Backoff,
+    /// After a shutdown request, how long the worker keeps trying to upload the tile it
+    /// finished before giving up (its lease then lapses and the tile is rendered elsewhere).
+    pub shutdown_grace: Duration,
+}
+
+impl Config {
+    /// Validates the raw settings. `threads: None` means every core of the machine.
+    pub fn new(
+        coordinator: &str,
+        token: Option<String>,
+        name: Option<String>,
+        threads: Option<usize>,
+    ) -> Result<Config, ConfigError> {
+        let coordinator = validate_url(coordinator)?;
+        let token = match token {
+            Some(t) if t.trim().is_empty() => {
+                return Err(ConfigError {
+                    field: "token",
+                    problem: "is empty (unset it to run without a token)".into(),
+                });
+            }
+            Some(t) => Some(t.trim().to_string()),
+            None => None,
+        };
+        let threads = match threads {
+            Some(0) => {
+                return Err(ConfigError {
+                    field: "threads",
+                    problem: "must be >= 1".into(),
+                });
+            }
+            Some(n) => n,
+            None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        };
+        let name = match name {
+            Some(n) if n.trim().is_empty() => {
+                return Err(ConfigError {
+                    field: "name",
+                    problem: "must not be empty".into(),
+                });
+            }
+            Some(n) => n,
+            None => default_name(),
+        };
+        Ok(Config {
+            coordinator,
+            token,
+            name,
+            threads,
+            lease_wait: Duration::from_secs(10),
+            backoff: Backoff::default(),
+            shutdown_grace: Duration::from_secs(30),
+        })
+    }
+}
+
+/// Accepts `http://host[:port][/]`; https needs a TLS stack the worker is built without (put
+/// the coordinator behind a private network or a tunnel, see `deploy/README.md`).
+fn validate_url(raw: &str) -> Result<String, ConfigError> {
+    let bad = |problem: String| ConfigError {
+        field: "coordinator",
+        problem,
+    };
+    let url = reqwest::Url::parse(raw.trim()).map_err(|e| {
+        bad(format!(
+            "`{raw}` is not a URL ({e}); expected http://HOST:PORT"
+        ))
+    })?;
+    if url.scheme() != "http" {
+        return Err(bad(format!(
+            "scheme `{}` is not supported; expected http://HOST:PORT",
+            url.scheme()
+        )));
+    }
+    if url.host_str().is_none_or(str::is_empty) {
+        return Err(bad(format!("`{raw}` has no host")));
+    }
+    if url.query().is_some() || url.fragment().is_some() {
+        return Err(bad(format!("`{raw}` must not have a query or fragment")));
+    }
+    Ok(url.as_str().trim_end_matches('/').to_string())
+}
+
+/// `HOSTNAME-PID`, or `worker-PID` where the host name is unknown.
+fn default_name() -> String {
+    let host = std::env::var("HOSTNAME")
+        .ok()
+        .filter(|h| !h.is_empty())
+        .or_else(|| {
+            std::fs::read_to_string("/etc/hostname")
+                .ok()
+                .map(|h| h.trim().to_string())
+                .filter(|h| !h.is_empty())
+        })
+        .unwrap_or_else(|| "worker".to_string());
+    format!("{host}-{}", std::process::id())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn accepts_plain_http_urls_and_strips_the_slash() {
+        let c = Config::new("http://127.0.0.1:7878/", None, Some("w".into()), Some(3)).unwrap();
+        assert_eq!(c.coordinator, "http://127.0.0.1:7878");
+        assert_eq!(c.threads, 3);
+        assert_eq!(c.name, "w");
+        let c = Config::new("http://farm.local:80", Some(" t ".into()), None, None).unwrap();
+        assert_eq!(c.token.as_deref(), Some("t"));
+        assert!(c.threads >= 1);
+        assert!(!c.name.is_empty());
+    }
+
+    #[test]
+    fn rejects_bad_settings_naming_the_field() {
+        for (url, token, threads, field) in [
+            ("127.0.0.1:7878", None, None, "coordinator"),
+            ("ftp://host:1", None, None, "coordinator"),
+            ("https://host:1", None, None, "coordinator"),
+            ("http://host:1/?x=1", None, None, "coordinator"),
+            ("not a url", None, None, "coordinator"),
+            ("http://host:1", Some("  "), None, "token"),
+            ("http://host:1", None, Some(0), "threads"),
+        ] {
+            let err = Config::new(url, token.map(String::from), None, threads).unwrap_err();
+            assert_eq!(err.field, field, "{url}: {err}");
+            assert!(err.to_string().starts_with(field));
+        }
+        let err = Config::new("http://h:1", None, Some(String::new()), None).unwrap_err();
+        assert_eq!(err.field, "name");
+    }
+}

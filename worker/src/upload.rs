@@ -1,0 +1,63 @@
+//! Delivering a rendered tile: upload it, and keep retrying with backoff until the
+//! coordinator acknowledges it or says it is no longer wanted.
+//!
+//! A rendered tile is the expensive thing in a farm, so it is not given up because the
+//! coordinator is restarting: transient failures are retried until `stop` (the worker's hard
+//! deadline) fires. Uploads are safe to repeat: the coordinator acknowledges an identical
+//! result for a finished tile as a duplicate.
+
+use spindle_common::protocol::{TileOutcome, TileUpload, pixel_hash};
+use spindle_common::tile::TilePixels;
+use tokio_util::sync::CancellationToken;
+
+use crate::backoff::{Backoff, RetryEnd, retry};
+use crate::client::{Client, ErrorKind};
+
+/// How an upload ended.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Delivery {
+    /// The coordinator acknowledged the tile.
+    Acknowledged(TileOutcome),
+    /// The coordinator does not want it (stale lease, job deleted, upload refused); the reason
+    /// is for the log.
+    Refused(String),
+    /// `stop` fired before an acknowledgement; the lease will lapse and the tile be rendered
+    /// elsewhere.
+    Abandoned,
+}
+
+/// Uploads `pixels` for lease (`job_id`, `tile`, `epoch`) until acknowledged.
+#[allow(clippy::too_many_arguments)]
+pub async fn deliver(
+    client: &Client,
+    policy: Backoff,
+    stop: &CancellationToken,
+    worker_id: u64,
+    job_id: u64,
+    tile: u32,
+    epoch: u64,
+    pixels: TilePixels,
+) -> Delivery {
+    let body = TileUpload {
+        worker_id,
+        epoch,
+        hash: pixel_hash(&pixels),
+        pixels,
+    };
+    let salt = worker_id ^ (job_id << 32) ^ u64::from(tile);
+    match retry(policy, salt, stop, "uploading a tile", || {
+        client.upload(job_id, tile, &body)
+    })
+    .await
+    {
+        Ok(ack) => Delivery::Acknowledged(ack.outcome),
+        Err(RetryEnd::Stopped) => Delivery::Abandoned,
+        Err(RetryEnd::Failed(e)) => {
+            if e.kind() == ErrorKind::Rejected {
+                // A 400/413 for a tile this worker rendered is a bug somewhere: say so loudly.
+                tracing::error!(job = job_id, tile, error = %e, "the coordinator refused a rendered tile");
+            }
+            Delivery::Refused(e.to_string())
+        }
+    }
+}

@@ -1,0 +1,383 @@
+//! The worker's main loop: register, lease a tile, render it while heartbeats keep the lease
+//! alive, deliver it, repeat, until told to stop.
+//!
+//! Failure handling in one place:
+//! - the coordinator unreachable or answering 5xx: wait with backoff and retry, forever (it may
+//!   be restarting);
+//! - the coordinator no longer knows this worker (404 on the lease route): register again;
+//! - a heartbeat answered 409/404: the lease is lost; whatever was being done for it is
+//!   abandoned (a render in progress finishes but is not uploaded);
+//! - a job that cannot be rendered (bad asset, scene that does not build, renderer panic): the
+//!   tile is reported through the fail route with the reason, so the coordinator can apply its
+//!   three-strikes rules;
+//! - the token refused (401/403): the worker stops with an error, since no retry can fix it.
+//!
+//! Shutdown: once `shutdown` fires, no new lease is asked for. The tile in hand is finished and
+//! delivered, for at most `shutdown_grace` more; then the worker gives up on it (the lease
+//! lapses and another worker renders it) and returns. Rendering runs on the worker's own rayon
+//! pool through `spawn_blocking`, never on the async runtime, so heartbeats keep flowing.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::{Context, anyhow};
+use spindle_common::protocol::{Heartbeat, Lease, RegisterWorker, TileFailure, TileOutcome};
+use spindle_common::tile::TilePixels;
+use tokio_util::sync::CancellationToken;
+
+use crate::Config;
+use crate::backoff::{Attempts, RetryEnd, retry};
+use crate::cache::{LoadError, SceneCache};
+use crate::client::{Client, ClientError, ErrorKind};
+use crate::upload::{Delivery, deliver};
+use spindle_render::render_tile;
+
+/// Shortest and longest pause between heartbeats.
+const HEARTBEAT_MIN: Duration = Duration::from_millis(50);
+const HEARTBEAT_MAX: Duration = Duration::from_secs(10);
+
+/// What a worker did before it stopped.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Summary {
+    /// Tiles the coordinator stored from this worker.
+    pub accepted: u64,
+    /// Tiles acknowledged as identical duplicates of an earlier result.
+    pub duplicates: u64,
+    /// Tiles rendered or started but not delivered (lease lost, job gone, shutdown deadline).
+    pub abandoned: u64,
+    /// Tiles reported as failed.
+    pub failed: u64,
+    /// Scenes built (jobs loaded).
+    pub scenes_built: u64,
+    /// Times the worker registered (more than 1: the coordinator forgot it).
+    pub registrations: u64,
+}
+
+/// One worker's state.
+pub struct Worker {
+    config: Config,
+    client: Client,
+    pool: Arc<rayon::ThreadPool>,
+    cache: SceneCache,
+    shutdown: CancellationToken,
+    /// Fires `shutdown_grace` after `shutdown`: the end of the tile in hand.
+    hard_stop: CancellationToken,
+    worker_id: Option<u64>,
+    /// Backoff state of consecutive failed lease requests.
+    lease_attempts: Attempts,
+    summary: Summary,
+}
+
+/// How the work on one lease ended, before delivery.
+enum Rendered {
+    Pixels(TilePixels),
+    /// The tile cannot be rendered: report this reason.
+    Failed(String),
+    /// Nothing to deliver (lease lost, job gone, deadline).
+    Abandoned,
+}
+
+impl Worker {
+    /// Sets up the render pool and the client; no request is made yet.
+    pub fn new(config: Config, shutdown: CancellationToken) -> anyhow::Result<Worker> {
+        let pool = Arc::new(
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(config.threads)
+                .thread_name(|i| format!("render-{i}"))
+                .build()
+                .context("starting the render threads")?,
+        );
+        let client = Client::new(&config.coordinator, config.token.clone())?;
+        let cache = SceneCache::new(client.clone(), pool.clone(), config.backoff);
+        let hard_stop = CancellationToken::new();
+        {
+            let (shutdown, hard_stop, grace) =
+                (shutdown.clone(), hard_stop.clone(), config.shutdown_grace);
+            // Dropped with the runtime if the worker returns first; nothing to clean up.
+            tokio::spawn(async move {
+                shutdown.cancelled().await;
+                tokio::time::sleep(grace).await;
+                hard_stop.cancel();
+            });
+        }
+        Ok(Worker {
+            client,
+            pool,
+            cache,
+            shutdown,
+            hard_stop,
+            worker_id: None,
+            lease_attempts: config.backoff.attempts(u64::from(std::process::id())),
+            summary: Summary::default(),
+            config,
+        })
+    }
+
+    /// Leases and renders tiles until `shutdown` fires (then returns `Ok`) or the coordinator
+    /// refuses the worker token.
+    pub async fn run(mut self) -> anyhow::Result<Summary> {
+        tracing::info!(
+            coordinator = %self.config.coordinator,
+            name = %self.config.name,
+            threads = self.config.threads,
+            "worker starting"
+        );
+        while !self.shutdown.is_cancelled() {
+            let Some(worker_id) = self.registered().await? else {
+                break;
+            };
+            let wait = self.config.lease_wait;
+            let result = tokio::select! {
+                _ = self.shutdown.cancelled() => break,
+                r = self.client.lease(worker_id, wait) => r,
+            };
+            match result {
+                Ok(Some(lease)) => {
+                    self.lease_attempts.reset();
+                    self.work(worker_id, lease).await?;
+                }
+                Ok(None) => self.lease_attempts.reset(),
+                Err(e) => self.lease_failed(e).await?,
+            }
+        }
+        self.summary.scenes_built = self.cache.builds();
+        tracing::info!(summary = ?self.summary, "worker stopped");
+        Ok(self.summary)
+    }
+
+    /// The worker id, registering first if needed; `None` if shutdown came first.
+    async fn registered(&mut self) -> anyhow::Result<Option<u64>> {
+        if let Some(id) = self.worker_id {
+            return Ok(Some(id));
+        }
+        let body = RegisterWorker {
+            name: self.config.name.clone(),
+            threads: u32::try_from(self.config.threads).unwrap_or(u32::MAX),
+        };
+        let salt = u64::from(std::process::id());
+        match retry(
+            self.config.backoff,
+            salt,
+            &self.shutdown,
+            "registering",
+            || self.client.register(&body),
+        )
+        .await
+        {
+            Ok(reply) => {
+                tracing::info!(
+                    worker_id = reply.worker_id,
+                    "registered with the coordinator"
+                );
+                self.worker_id = Some(reply.worker_id);
+                self.summary.registrations += 1;
+                Ok(Some(reply.worker_id))
+            }
+            Err(RetryEnd::Stopped) => Ok(None),
+            Err(RetryEnd::Failed(e)) => Err(fatal(e, "registering with the coordinator")),
+        }
+    }
+
+    /// Handles a failed lease request: re-register, back off, or give up.
+    async fn lease_failed(&mut self, e: ClientError) -> anyhow::Result<()> {
+        match e.kind() {
+            ErrorKind::NotFound => {
+                tracing::warn!(error = %e, "the coordinator does not know this worker; registering again");
+                self.worker_id = None;
+                Ok(())
+            }
+            ErrorKind::Unauthorized => Err(fatal(e, "asking for a lease")),
+            ErrorKind::Transient | ErrorKind::Conflict | ErrorKind::Rejected => {
+                // Lease requests carry no data that could be wrong, so anything else is treated
+                // as the coordinator being unwell.
+                let delay = self.lease_attempts.next_delay();
+                tracing::warn!(error = %e, ?delay, "asking for a lease failed; retrying");
+                tokio::select! {
+                    _ = self.shutdown.cancelled() => {}
+                    _ = tokio::time::sleep(delay) => {}
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// Renders and delivers one leased tile, with heartbeats running throughout.
+    async fn work(&mut self, worker_id: u64, lease: Lease) -> anyhow::Result<()> {
+        let Lease {
+            job_id,
+            tile_index,
+            rect,
+            epoch,
+            ttl_ms,
+        } = lease;
+        tracing::debug!(job = job_id, tile = tile_index, epoch, "leased");
+        // `stop` fires when the lease is lost or at the hard deadline.
+        let stop = self.hard_stop.child_token();
+        let heartbeats = tokio::spawn(heartbeat_loop(
+            self.client.clone(),
+            worker_id,
+            job_id,
+            tile_index,
+            epoch,
+            Duration::from_millis(ttl_ms),
+            stop.clone(),
+        ));
+        let rendered = self.render(job_id, rect, &stop).await;
+        let outcome = match rendered {
+            Ok(Rendered::Pixels(pixels)) => {
+                let delivery = deliver(
+                    &self.client,
+                    self.config.backoff,
+                    &stop,
+                    worker_id,
+                    job_id,
+                    tile_index,
+                    epoch,
+                    pixels,
+                )
+                .await;
+                match delivery {
+                    Delivery::Acknowledged(TileOutcome::Accepted) => self.summary.accepted += 1,
+                    Delivery::Acknowledged(TileOutcome::Duplicate) => self.summary.duplicates += 1,
+                    Delivery::Refused(_) | Delivery::Abandoned => self.summary.abandoned += 1,
+                }
+                tracing::info!(job = job_id, tile = tile_index, epoch, outcome = ?delivery, "tile delivered");
+                Ok(())
+            }
+            Ok(Rendered::Failed(reason)) => {
+                self.summary.failed += 1;
+                tracing::warn!(job = job_id, tile = tile_index, %reason, "tile failed");
+                let body = TileFailure {
+                    worker_id,
+                    epoch,
+                    reason,
+                };
+                match retry(
+                    self.config.backoff,
+                    worker_id,
+                    &stop,
+                    "reporting a failed tile",
+                    || self.client.fail(job_id, tile_index, &body),
+                )
+                .await
+                {
+                    Err(RetryEnd::Failed(e)) if e.kind() == ErrorKind::Unauthorized => {
+                        Err(fatal(e, "reporting a failed tile"))
+                    }
+                    _ => Ok(()),
+                }
+            }
+            Ok(Rendered::Abandoned) => {
+                self.summary.abandoned += 1;
+                tracing::info!(job = job_id, tile = tile_index, epoch, "tile abandoned");
+                Ok(())
+            }
+            Err(e) => Err(e),
+        };
+        heartbeats.abort();
+        outcome
+    }
+
+    /// Loads the job's scene (cached) and renders the tile on the render pool.
+    async fn render(
+        &mut self,
+        job_id: u64,
+        rect: spindle_common::tile::TileRect,
+        stop: &CancellationToken,
+    ) -> anyhow::Result<Rendered> {
+        let scene = match self.cache.get(job_id, stop).await {
+            Ok(scene) => scene,
+            Err(LoadError::Broken(reason)) => return Ok(Rendered::Failed(reason)),
+            Err(LoadError::Gone | LoadError::Interrupted) => return Ok(Rendered::Abandoned),
+            Err(LoadError::Unauthorized(e)) => return Err(fatal(e, "loading a job")),
+        };
+        let film = scene.film();
+        if rect.width == 0
+            || rect.height == 0
+            || u64::from(rect.x) + u64::from(rect.width) > u64::from(film.width)
+            || u64::from(rect.y) + u64::from(rect.height) > u64::from(film.height)
+        {
+            return Ok(Rendered::Failed(format!(
+                "lease rect {rect:?} is not inside the {}x{} film",
+                film.width, film.height
+            )));
+        }
+        let pool = self.pool.clone();
+        let job = tokio::task::spawn_blocking(move || pool.install(|| render_tile(&scene, rect)));
+        let pixels = match job.await {
+            Ok(pixels) => pixels,
+            Err(e) => {
+                return Ok(Rendered::Failed(format!(
+                    "the renderer panicked: {}",
+                    panic_message(e)
+                )));
+            }
+        };
+        if stop.is_cancelled() {
+            // The lease was lost (or the deadline passed) while rendering.
+            return Ok(Rendered::Abandoned);
+        }
+        Ok(Rendered::Pixels(pixels))
+    }
+}
+
+/// Renews the lease every third of its TTL until `stop` fires; cancels `stop` when the
+/// coordinator says the lease is no longer this worker's.
+async fn heartbeat_loop(
+    client: Client,
+    worker_id: u64,
+    job_id: u64,
+    tile: u32,
+    epoch: u64,
+    ttl: Duration,
+    stop: CancellationToken,
+) {
+    let body = Heartbeat { worker_id, epoch };
+    let mut interval = (ttl / 3).clamp(HEARTBEAT_MIN, HEARTBEAT_MAX);
+    loop {
+        tokio::select! {
+            _ = stop.cancelled() => return,
+            _ = tokio::time::sleep(interval) => {}
+        }
+        let result = tokio::select! {
+            _ = stop.cancelled() => return,
+            r = client.heartbeat(job_id, tile, &body) => r,
+        };
+        match result {
+            Ok(ack) => {
+                interval =
+                    (Duration::from_millis(ack.ttl_ms) / 3).clamp(HEARTBEAT_MIN, HEARTBEAT_MAX)
+            }
+            Err(e) if matches!(e.kind(), ErrorKind::Conflict | ErrorKind::NotFound) => {
+                tracing::info!(job = job_id, tile, epoch, error = %e, "lease lost");
+                stop.cancel();
+                return;
+            }
+            // Keep the render going: if the coordinator comes back within its grace period the
+            // lease is still good, and if not the upload will be refused.
+            Err(e) => tracing::warn!(job = job_id, tile, error = %e, "heartbeat failed"),
+        }
+    }
+}
+
+/// An error that ends the worker, with what it was doing.
+fn fatal(e: ClientError, doing: &str) -> anyhow::Error {
+    match e.kind() {
+        ErrorKind::Unauthorized => anyhow!(
+            "{doing}: the coordinator refused the worker token ({e}); check SPINDLE_WORKER_TOKEN"
+        ),
+        _ => anyhow!("{doing}: {e}"),
+    }
+}
+
+/// The message of a panic caught by a `JoinError`.
+fn panic_message(e: tokio::task::JoinError) -> String {
+    match e.try_into_panic() {
+        Ok(payload) => payload
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "(no message)".to_string()),
+        Err(e) => e.to_string(),
+    }
+}
