@@ -6,12 +6,12 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use spindle_common::scene::{Scene as SceneDesc, Shape};
+use spindle_common::scene::{SceneDescription, Shape};
 use spindle_render::Assets;
 
 /// A scene file and its meshes.
 pub struct SceneFiles {
-    pub desc: SceneDesc,
+    pub desc: SceneDescription,
     pub assets: Assets,
 }
 
@@ -20,8 +20,8 @@ pub struct SceneFiles {
 pub fn load_scene(path: &Path) -> Result<SceneFiles> {
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("cannot read scene file {}", path.display()))?;
-    let desc =
-        SceneDesc::from_json(&text).with_context(|| format!("invalid scene {}", path.display()))?;
+    let desc = SceneDescription::from_json(&text)
+        .with_context(|| format!("invalid scene {}", path.display()))?;
     let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let mut assets = Assets::new();
     for (i, object) in desc.objects.iter().enumerate() {

@@ -6,7 +6,6 @@ mod bench;
 mod cancel;
 mod fetch;
 mod load;
-mod local;
 mod local_farm;
 mod progress;
 mod render;

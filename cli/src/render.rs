@@ -16,7 +16,7 @@ use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use spindle_common::image::Image;
 use spindle_common::protocol::DEFAULT_TILE_SIZE;
-use spindle_common::scene::Scene as SceneDesc;
+use spindle_common::scene::SceneDescription;
 use spindle_common::stats::RenderStats;
 use spindle_common::tile::TileRect;
 use spindle_render::scatter::describe_plan;
@@ -60,7 +60,7 @@ pub struct RenderArgs {
 
 impl RenderArgs {
     /// Applies `--spp` and `--seed` to a scene.
-    fn edit(&self, scene: &mut SceneDesc) {
+    fn edit(&self, scene: &mut SceneDescription) {
         if let Some(spp) = self.spp {
             scene.film.spp = spp;
         }
@@ -129,7 +129,7 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
     print_plan(&scatter_plan);
     drop(files);
     let result = crate::local_farm::render(workers, |api| async move {
-        let edit = |s: &mut SceneDesc| args.edit(s);
+        let edit = |s: &mut SceneDescription| args.edit(s);
         crate::submit::submit_scene_file(&api, &args.scene, Some(&edit), args.tile_size, 0).await
     })
     .await?;
@@ -234,7 +234,8 @@ fn in_process(args: &RenderArgs) -> Result<()> {
         progress.set_draw_target(ProgressDrawTarget::hidden());
     }
     let render_started = Instant::now();
-    let (mut image, stats) = crate::local::render_in_process(&scene, region, &progress)?;
+    let (mut image, stats) =
+        spindle_render::render_frame(&scene, region, &|rows| progress.inc(rows))?;
     progress.finish_and_clear();
     let rendered = render_started.elapsed();
 
@@ -297,7 +298,7 @@ fn print_plan(plan: &[String]) {
 fn describe(
     a: &mut std::collections::BTreeMap<String, String>,
     args: &RenderArgs,
-    desc: &SceneDesc,
+    desc: &SceneDescription,
     stats: &RenderStats,
 ) {
     a.insert("spindle.scene".into(), args.scene.display().to_string());

@@ -10,7 +10,7 @@ use std::path::Path;
 
 use anyhow::{Context, Result};
 use spindle_common::protocol::{DEFAULT_TILE_SIZE, JobInfo, SubmitJob, asset_hash};
-use spindle_common::scene::Scene;
+use spindle_common::scene::SceneDescription;
 
 use crate::api::Api;
 use crate::load::load_scene;
@@ -50,7 +50,7 @@ pub async fn run(api: &Api, args: &SubmitArgs) -> Result<()> {
 pub async fn submit_scene_file(
     api: &Api,
     scene_path: &Path,
-    edit: Option<&dyn Fn(&mut Scene)>,
+    edit: Option<&dyn Fn(&mut SceneDescription)>,
     tile_size: u32,
     priority: i32,
 ) -> Result<JobInfo> {

@@ -4,7 +4,7 @@ use std::path::Path;
 use std::process::Command;
 
 use spindle_common::image::read_exr;
-use spindle_common::scene::Scene as SceneDesc;
+use spindle_common::scene::SceneDescription;
 use spindle_common::tile::TileRect;
 use spindle_render::{Assets, Scene, render_tile};
 
@@ -42,7 +42,7 @@ fn renders_the_tiny_example_to_exr_and_png_matching_the_library() {
     assert!(stdout.contains("single scattering: objects[0]"), "{stdout}");
 
     let image = read_exr(&out).unwrap();
-    let desc = SceneDesc::from_json(&std::fs::read_to_string(&scene_path).unwrap()).unwrap();
+    let desc = SceneDescription::from_json(&std::fs::read_to_string(&scene_path).unwrap()).unwrap();
     assert_eq!(
         (image.width, image.height),
         (desc.film.width, desc.film.height)

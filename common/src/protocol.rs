@@ -47,7 +47,7 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use crate::scene::Scene;
+use crate::scene::SceneDescription;
 use crate::stats::RenderStats;
 use crate::tile::{TilePixels, TileRect};
 
@@ -99,7 +99,7 @@ pub struct AssetStored {
 pub struct SubmitJob {
     /// The scene, as in a scene file.
     #[schema(value_type = Object)]
-    pub scene: Scene,
+    pub scene: SceneDescription,
     /// For each `obj` shape's `path` in the scene, the blake3 hash of the uploaded file.
     #[serde(default)]
     pub assets: BTreeMap<String, String>,
@@ -240,7 +240,7 @@ pub struct Lease {
 #[serde(deny_unknown_fields)]
 pub struct JobSpec {
     #[schema(value_type = Object)]
-    pub scene: Scene,
+    pub scene: SceneDescription,
     /// `obj` path in the scene → blake3 hash; fetch each with `GET /v1/assets/{hash}`.
     pub assets: BTreeMap<String, String>,
     pub tile_size: u32,

@@ -1,9 +1,9 @@
 //! The scene file format: what a user (or an outside tool) writes to describe a render.
 //!
 //! These are the JSON types only. Every struct rejects unknown fields; values are checked by
-//! [`Scene::from_json`] (and [`Scene::validate`], both in [`crate::validate`]), which name the
+//! [`SceneDescription::from_json`] (and [`SceneDescription::validate`], both in [`crate::validate`]), which name the
 //! JSON path of the first bad value (`objects[0].material.medium.sigma_t[1]: must be >= 0, got
-//! -0.5`). The renderer turns a validated `Scene` into its own values; it never sees raw JSON.
+//! -0.5`). The renderer turns a validated `SceneDescription` into its own values; it never sees raw JSON.
 //! `scenes/README.md` documents every field.
 
 use serde::{Deserialize, Serialize};
@@ -18,7 +18,7 @@ pub type Vec3 = [f64; 3];
 /// A whole scene.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct Scene {
+pub struct SceneDescription {
     pub camera: Camera,
     pub film: Film,
     #[serde(default)]

@@ -1,15 +1,15 @@
-//! Reading and checking a scene: JSON in, a [`Scene`] whose every value is usable out.
+//! Reading and checking a scene: JSON in, a [`SceneDescription`] whose every value is usable out.
 //!
 //! A scene comes from users and outside tools, so a mistake must come back as one clear line
 //! naming where it is (`objects[0].material.medium.sigma_t[1]: must be >= 0, got -0.5`), never
 //! as a panic, a hang or a NaN deep in the renderer. Parsing reports the JSON path of a
-//! malformed or unknown value ([`serde_path_to_error`]); [`Scene::validate`] then checks the
+//! malformed or unknown value ([`serde_path_to_error`]); [`SceneDescription::validate`] then checks the
 //! ranges the types cannot express and names the path of the first bad value, in document
 //! order. Paths use `.` between fields and `[i]` for array elements (also for the components of
 //! an `[x, y, z]` or `[r, g, b]` triple); the whole document is `.`.
 
 use crate::scene::{
-    Camera, Film, Integrator, Light, Material, Medium, Object, Phase, Rgb, Scene, Shape,
+    Camera, Film, Integrator, Light, Material, Medium, Object, Phase, Rgb, SceneDescription, Shape,
     SingleScatter, Transform, Vec3,
 };
 
@@ -55,12 +55,12 @@ impl SceneError {
 
 type Check = Result<(), SceneError>;
 
-impl Scene {
-    /// Parses a scene from JSON text and validates it ([`Scene::validate`]). Unknown fields,
+impl SceneDescription {
+    /// Parses a scene from JSON text and validates it ([`SceneDescription::validate`]). Unknown fields,
     /// wrong types, missing required fields and trailing text are rejected with their path.
-    pub fn from_json(text: &str) -> Result<Scene, SceneError> {
+    pub fn from_json(text: &str) -> Result<SceneDescription, SceneError> {
         let mut json = serde_json::Deserializer::from_str(text);
-        let scene: Scene = serde_path_to_error::deserialize(&mut json).map_err(|e| {
+        let scene: SceneDescription = serde_path_to_error::deserialize(&mut json).map_err(|e| {
             let problem = e.inner().to_string();
             SceneError::new(full_path(e.path().to_string(), &problem), problem)
         })?;
@@ -498,12 +498,12 @@ mod tests {
     }
 
     /// `full_scene` with the value at JSON pointer `pointer` replaced, parsed and validated.
-    fn with(pointer: &str, value: Value) -> Result<Scene, SceneError> {
+    fn with(pointer: &str, value: Value) -> Result<SceneDescription, SceneError> {
         let mut scene = full_scene();
         *scene
             .pointer_mut(pointer)
             .unwrap_or_else(|| panic!("test pointer {pointer} names no value")) = value;
-        Scene::from_json(&scene.to_string())
+        SceneDescription::from_json(&scene.to_string())
     }
 
     /// Asserts that setting `pointer` to `value` is rejected at exactly `path`, with a message
@@ -525,8 +525,9 @@ mod tests {
 
     /// The same check on a scene built in code (values JSON cannot carry, like NaN).
     #[track_caller]
-    fn rejects_value(edit: impl FnOnce(&mut Scene), path: &str, word: &str) {
-        let mut scene = Scene::from_json(&full_scene().to_string()).expect("valid base scene");
+    fn rejects_value(edit: impl FnOnce(&mut SceneDescription), path: &str, word: &str) {
+        let mut scene =
+            SceneDescription::from_json(&full_scene().to_string()).expect("valid base scene");
         edit(&mut scene);
         let e = scene.validate().expect_err("edited scene was accepted");
         assert_eq!(e.path, path, "{e}");
@@ -535,7 +536,7 @@ mod tests {
 
     #[test]
     fn full_scene_is_valid() {
-        let scene = Scene::from_json(&full_scene().to_string()).expect("valid");
+        let scene = SceneDescription::from_json(&full_scene().to_string()).expect("valid");
         assert_eq!(scene.lights.len(), 2);
         assert_eq!(scene.objects.len(), 3);
         assert_eq!(
@@ -563,7 +564,7 @@ mod tests {
                               "medium": { "sigma_t": [0, 0, 0], "albedo": [0, 0, 0] } }
             } ]
         }"#;
-        let scene = Scene::from_json(text).expect("valid");
+        let scene = SceneDescription::from_json(text).expect("valid");
         assert_eq!(scene.camera.up, [0.0, 1.0, 0.0]);
         assert_eq!((scene.film.spp, scene.film.seed), (4, 0));
         assert!(scene.lights.is_empty());
@@ -603,45 +604,45 @@ mod tests {
     fn unknown_fields_are_rejected_with_their_path() {
         let mut scene = full_scene();
         scene["camera"]["fov_x"] = json!(40);
-        let e = Scene::from_json(&scene.to_string()).unwrap_err();
+        let e = SceneDescription::from_json(&scene.to_string()).unwrap_err();
         assert_eq!(e.path, "camera.fov_x", "{e}");
         assert!(e.problem.contains("unknown field `fov_x`"), "{e}");
 
         let mut scene = full_scene();
         scene["integrator"]["single_scatter"]["pruning"] =
             json!({ "spindle": true, "cones": false });
-        let e = Scene::from_json(&scene.to_string()).unwrap_err();
+        let e = SceneDescription::from_json(&scene.to_string()).unwrap_err();
         assert_eq!(e.path, "integrator.single_scatter.pruning.cones", "{e}");
         assert!(e.problem.contains("unknown field"), "{e}");
 
         let mut scene = full_scene();
         scene["colour"] = json!([1, 1, 1]);
-        let e = Scene::from_json(&scene.to_string()).unwrap_err();
+        let e = SceneDescription::from_json(&scene.to_string()).unwrap_err();
         assert_eq!(e.path, "colour", "{e}");
 
         // Inside a tagged enum (shape, material, light) the path reaches the enum value.
         let mut scene = full_scene();
         scene["objects"][1]["shape"]["e"] = json!(3);
-        let e = Scene::from_json(&scene.to_string()).unwrap_err();
+        let e = SceneDescription::from_json(&scene.to_string()).unwrap_err();
         assert_eq!(e.path, "objects[1].shape.e", "{e}");
         let mut scene = full_scene();
         scene["objects"][1]["shape"]["segments"] = json!(3);
-        let e = Scene::from_json(&scene.to_string()).unwrap_err();
+        let e = SceneDescription::from_json(&scene.to_string()).unwrap_err();
         assert_eq!(e.path, "objects[1].shape.segments", "{e}");
         assert!(e.problem.contains("unknown field `segments`"), "{e}");
         let mut scene = full_scene();
         scene["lights"][1]["intensity"] = json!([1, 1, 1]);
-        let e = Scene::from_json(&scene.to_string()).unwrap_err();
+        let e = SceneDescription::from_json(&scene.to_string()).unwrap_err();
         assert_eq!(e.path, "lights[1].intensity", "{e}");
         let mut scene = full_scene();
         scene["objects"][1]["material"]["medium"]["phase"]["k"] = json!(0.1);
-        let e = Scene::from_json(&scene.to_string()).unwrap_err();
+        let e = SceneDescription::from_json(&scene.to_string()).unwrap_err();
         assert!(e.path.starts_with("objects[1].material"), "{e}");
         assert!(e.path.ends_with(".k"), "{e}");
 
         let mut scene = full_scene();
         scene["objects"][0]["shape"]["type"] = json!("cube");
-        let e = Scene::from_json(&scene.to_string()).unwrap_err();
+        let e = SceneDescription::from_json(&scene.to_string()).unwrap_err();
         assert_eq!(e.path, "objects[0].shape.type", "{e}");
         assert!(e.problem.contains("unknown variant `cube`"), "{e}");
     }
@@ -664,19 +665,19 @@ mod tests {
         );
         let mut scene = full_scene();
         scene["camera"].as_object_mut().unwrap().remove("fov_y");
-        let e = Scene::from_json(&scene.to_string()).unwrap_err();
+        let e = SceneDescription::from_json(&scene.to_string()).unwrap_err();
         assert_eq!(e.path, "camera", "{e}");
         assert!(e.problem.contains("missing field `fov_y`"), "{e}");
-        let e = Scene::from_json(&format!("{} {{}}", full_scene())).unwrap_err();
+        let e = SceneDescription::from_json(&format!("{} {{}}", full_scene())).unwrap_err();
         assert_eq!(e.path, ".", "{e}");
         assert!(e.problem.contains("trailing"), "{e}");
-        let e = Scene::from_json("{ \"camera\": ").unwrap_err();
+        let e = SceneDescription::from_json("{ \"camera\": ").unwrap_err();
         assert!(e.problem.contains("EOF"), "{e}");
         // Numbers beyond f64 are not turned into infinity.
         let text = full_scene()
             .to_string()
             .replace("\"fov_y\":40", "\"fov_y\":1e400");
-        let e = Scene::from_json(&text).unwrap_err();
+        let e = SceneDescription::from_json(&text).unwrap_err();
         assert_eq!(e.path, "camera.fov_y", "{e}");
         assert!(e.problem.contains("out of range"), "{e}");
     }
@@ -685,32 +686,38 @@ mod tests {
     fn non_finite_numbers_are_rejected_everywhere() {
         for (edit, path) in [
             (
-                Box::new(|s: &mut Scene| s.camera.position[1] = f64::NAN)
-                    as Box<dyn FnOnce(&mut Scene)>,
+                Box::new(|s: &mut SceneDescription| s.camera.position[1] = f64::NAN)
+                    as Box<dyn FnOnce(&mut SceneDescription)>,
                 "camera.position[1]",
             ),
             (
-                Box::new(|s: &mut Scene| s.camera.up[0] = f64::INFINITY),
+                Box::new(|s: &mut SceneDescription| s.camera.up[0] = f64::INFINITY),
                 "camera.up[0]",
             ),
             (
-                Box::new(|s: &mut Scene| s.camera.fov_y = f64::NAN),
+                Box::new(|s: &mut SceneDescription| s.camera.fov_y = f64::NAN),
                 "camera.fov_y",
             ),
             (
-                Box::new(|s: &mut Scene| s.background[2] = f64::INFINITY),
+                Box::new(|s: &mut SceneDescription| s.background[2] = f64::INFINITY),
                 "background[2]",
             ),
             (
-                Box::new(|s: &mut Scene| s.objects[1].transform.translate[0] = f64::NEG_INFINITY),
+                Box::new(|s: &mut SceneDescription| {
+                    s.objects[1].transform.translate[0] = f64::NEG_INFINITY
+                }),
                 "objects[1].transform.translate[0]",
             ),
             (
-                Box::new(|s: &mut Scene| s.objects[1].transform.rotate_deg[2] = f64::NAN),
+                Box::new(|s: &mut SceneDescription| {
+                    s.objects[1].transform.rotate_deg[2] = f64::NAN
+                }),
                 "objects[1].transform.rotate_deg[2]",
             ),
             (
-                Box::new(|s: &mut Scene| s.integrator.single_scatter.newton_tolerance = f64::NAN),
+                Box::new(|s: &mut SceneDescription| {
+                    s.integrator.single_scatter.newton_tolerance = f64::NAN
+                }),
                 "integrator.single_scatter.newton_tolerance",
             ),
         ] {
@@ -1015,7 +1022,7 @@ mod tests {
         let mut scene = full_scene();
         scene["film"]["spp"] = json!(0);
         scene["objects"][2]["shape"]["radius"] = json!(0);
-        let e = Scene::from_json(&scene.to_string()).unwrap_err();
+        let e = SceneDescription::from_json(&scene.to_string()).unwrap_err();
         assert_eq!(e.path, "film.spp");
     }
 }

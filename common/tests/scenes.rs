@@ -6,7 +6,7 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 use serde_json::Value;
-use spindle_common::scene::{Scene, Shape};
+use spindle_common::scene::{SceneDescription, Shape};
 
 fn scenes_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes")
@@ -21,7 +21,8 @@ fn every_example_scene_loads_and_validates() {
             continue;
         }
         let text = std::fs::read_to_string(&path).unwrap();
-        let scene = Scene::from_json(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let scene = SceneDescription::from_json(&text)
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         for (i, object) in scene.objects.iter().enumerate() {
             if let Shape::Obj { path: mesh } = &object.shape {
                 let file = path.parent().unwrap().join(mesh);
@@ -47,7 +48,8 @@ fn every_example_scene_loads_and_validates() {
 #[test]
 fn the_examples_have_the_documented_sizes() {
     let load = |name: &str| {
-        Scene::from_json(&std::fs::read_to_string(scenes_dir().join(name)).unwrap()).unwrap()
+        SceneDescription::from_json(&std::fs::read_to_string(scenes_dir().join(name)).unwrap())
+            .unwrap()
     };
     let tiny = load("tiny.json");
     assert_eq!(
@@ -104,7 +106,8 @@ fn names(value: &Value, out: &mut BTreeSet<String>) {
 fn the_readme_example_is_valid_uses_every_field_and_every_name_is_documented() {
     let readme = std::fs::read_to_string(scenes_dir().join("README.md")).unwrap();
     let example = readme_example(&readme);
-    let scene = Scene::from_json(&example).unwrap_or_else(|e| panic!("README example: {e}"));
+    let scene =
+        SceneDescription::from_json(&example).unwrap_or_else(|e| panic!("README example: {e}"));
 
     // Serializing writes every field, defaults included; the example must show them all.
     let mut written = BTreeSet::new();
@@ -150,20 +153,20 @@ fn the_readme_error_examples_are_real() {
     let example = readme_example(&readme);
     let mut value: Value = serde_json::from_str(&example).unwrap();
     value["objects"][1]["material"]["medium"]["sigma_t"][1] = (-0.5).into();
-    let e = Scene::from_json(&value.to_string())
+    let e = SceneDescription::from_json(&value.to_string())
         .unwrap_err()
         .to_string();
     assert!(readme.contains(&e), "README lacks `{e}`");
     let mut value: Value = serde_json::from_str(&example).unwrap();
     value["objects"][1]["material"]["eta"] = 0.9.into();
-    let e = Scene::from_json(&value.to_string())
+    let e = SceneDescription::from_json(&value.to_string())
         .unwrap_err()
         .to_string();
     assert!(readme.contains(&e), "README lacks `{e}`");
     // The line and column depend on the layout, so only the text before them is compared.
     let mut value: Value = serde_json::from_str(&example).unwrap();
     value["camera"]["fov_x"] = 35.0.into();
-    let e = Scene::from_json(&value.to_string())
+    let e = SceneDescription::from_json(&value.to_string())
         .unwrap_err()
         .to_string();
     let (text, _) = e.split_once(" at line ").unwrap();

@@ -9,6 +9,7 @@
 
 pub mod bvh;
 pub mod camera;
+pub mod frame;
 pub mod fresnel;
 pub mod light;
 pub mod medium;
@@ -27,5 +28,6 @@ pub mod transport;
 /// Linear RGB radiance (or throughput), one f64 per channel.
 pub type Rgb = glam::DVec3;
 
+pub use frame::render_frame;
 pub use scene::{Assets, Scene, SceneError};
 pub use tile::{PixelValue, render_pixel, render_tile, render_tile_with_progress};

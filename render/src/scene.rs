@@ -1,6 +1,6 @@
 //! The renderer's scene: validated, world-space, ready to trace.
 //!
-//! [`Scene::build`] turns the JSON description (`spindle_common::scene::Scene`) and the bytes of
+//! [`Scene::build`] turns the JSON description (`spindle_common::scene::SceneDescription`) and the bytes of
 //! its OBJ files ([`Assets`]) into meshes in world space, one BVH per object (for an
 //! integrator's per-object descent), one scene-wide BVH over every triangle (for camera, shadow
 //! and visibility rays), materials, lights and the camera. Every value is checked on the way in:
@@ -21,7 +21,7 @@ use crate::medium::Medium;
 use crate::mesh::{MeshReport, TriangleMesh};
 use crate::obj::parse_obj;
 use crate::procedural::{MAX_SUBDIVISIONS, bumpy_sphere, icosphere};
-use crate::scatter::bounds::PruneBounds;
+use crate::scatter::prune::bounds::PruneBounds;
 use crate::transform::Transform;
 
 /// The bytes of each `obj` shape's file, keyed by the shape's `path` string exactly as written
@@ -128,7 +128,7 @@ pub struct Scene {
 
 impl Scene {
     /// Builds the scene; OBJ shapes are looked up in `assets` by their `path` string.
-    pub fn build(scene: &desc::Scene, assets: &Assets) -> Result<Scene, SceneError> {
+    pub fn build(scene: &desc::SceneDescription, assets: &Assets) -> Result<Scene, SceneError> {
         // The scene format's own rules first (the same checks `Scene::from_json` applies), so
         // a description that did not come through JSON is held to them too.
         scene
@@ -413,7 +413,7 @@ fn build_object(
 mod tests {
     use super::*;
 
-    fn scene_json(objects: &str, lights: &str) -> desc::Scene {
+    fn scene_json(objects: &str, lights: &str) -> desc::SceneDescription {
         serde_json::from_str(&format!(
             r#"{{ "camera": {{ "position": [0, 0, 5], "look_at": [0, 0, 0], "fov_y": 30 }},
                  "film": {{ "width": 8, "height": 6 }},

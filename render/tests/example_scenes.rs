@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use spindle_common::scene::{Scene as SceneDesc, Shape};
+use spindle_common::scene::{SceneDescription, Shape};
 use spindle_common::stats::RenderStats;
 use spindle_common::tile::TileRect;
 use spindle_render::{Assets, Scene, render_tile};
@@ -26,7 +26,7 @@ fn example_scenes_drop_nothing() {
             continue;
         }
         let text = std::fs::read_to_string(&path).expect("scene file reads");
-        let mut desc = SceneDesc::from_json(&text).expect("example scene validates");
+        let mut desc = SceneDescription::from_json(&text).expect("example scene validates");
         let mut assets = Assets::new();
         for object in &desc.objects {
             if let Shape::Obj { path: mesh } = &object.shape {

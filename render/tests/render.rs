@@ -1,6 +1,6 @@
 //! End-to-end renders of tiny scenes whose pixel values are known in closed form.
 
-use spindle_common::scene::Scene as SceneDesc;
+use spindle_common::scene::SceneDescription;
 use spindle_common::tile::{TileRect, split_centre_first};
 use spindle_render::{Assets, Scene, render_tile};
 
@@ -61,7 +61,7 @@ fn slab_scene(
         "integrator": {{ "max_depth": 8, "internal_reflections": {internal_reflections} }}
     }}"#
     );
-    let desc: SceneDesc = serde_json::from_str(&json).unwrap();
+    let desc: SceneDescription = serde_json::from_str(&json).unwrap();
     let assets = Assets::from([(
         "slab.obj".to_string(),
         slab_obj(thickness, open_back).into_bytes(),

@@ -1,7 +1,7 @@
 //! Whole-image agreement of the single-scattering integrators (issue 3): the interval method
 //! against the brute-force reference, through the renderer's public tile rendering.
 
-use spindle_common::scene::Scene as SceneDesc;
+use spindle_common::scene::SceneDescription;
 use spindle_common::tile::{TilePixels, TileRect};
 use spindle_render::{Assets, Scene, render_tile};
 
@@ -34,7 +34,7 @@ fn scene(single_scatter: &str) -> Scene {
                          "single_scatter": {single_scatter} }}
     }}"#
     );
-    let desc: SceneDesc = serde_json::from_str(&json).expect("test scene parses");
+    let desc: SceneDescription = serde_json::from_str(&json).expect("test scene parses");
     Scene::build(&desc, &Assets::new()).expect("test scene builds")
 }
 

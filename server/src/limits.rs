@@ -5,7 +5,7 @@
 //! stored. Triangle counts are known without building geometry: an icosphere of `s`
 //! subdivisions has 20·4^s triangles; an OBJ's are counted from its `f` lines.
 
-use spindle_common::scene::{Scene, Shape};
+use spindle_common::scene::{SceneDescription, Shape};
 
 /// The coordinator's limits.
 #[derive(Debug, Clone, PartialEq)]
@@ -57,7 +57,7 @@ impl Default for Limits {
 impl Limits {
     /// Checks the film and the tile size of a job (not its triangles, see
     /// [`Limits::check_triangles`]).
-    pub fn check_film(&self, scene: &Scene, tile_size: u32) -> Result<(), String> {
+    pub fn check_film(&self, scene: &SceneDescription, tile_size: u32) -> Result<(), String> {
         let film = &scene.film;
         for (field, value, max) in [
             ("scene.film.width", film.width, self.max_width),
@@ -99,7 +99,7 @@ impl Limits {
     /// asset (or an error naming the problem).
     pub fn check_triangles(
         &self,
-        scene: &Scene,
+        scene: &SceneDescription,
         mut obj_triangles: impl FnMut(&str) -> Result<u64, String>,
     ) -> Result<(), String> {
         let mut total: u64 = 0;

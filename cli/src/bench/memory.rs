@@ -10,7 +10,6 @@ use std::path::Path;
 use std::process::Command;
 
 use anyhow::{Context, Result, bail};
-use indicatif::ProgressBar;
 use spindle_common::scene::ScatterMethod;
 
 use super::metric::linear_fit;
@@ -19,7 +18,7 @@ use super::report::{Report, Table, sig};
 use super::scenes::{Model, SHARED_MESHES, film, shared_meshes};
 use super::{BenchArgs, keep_scene, settings};
 use crate::load::load_scene;
-use crate::local::render_in_process;
+use spindle_render::render_frame;
 
 const PEAK_KEY: &str = "peak_rss_kib";
 
@@ -52,7 +51,7 @@ pub fn probe(scene_path: &Path) -> Result<()> {
         width: film.width,
         height: film.height,
     };
-    let (_image, _stats) = render_in_process(&scene, full, &ProgressBar::hidden())?;
+    let (_image, _stats) = render_frame(&scene, full, &|_| ())?;
     println!("triangles {}", scene.triangle_count());
     println!("{PEAK_KEY} {}", peak_rss_kib()?);
     Ok(())

@@ -226,7 +226,7 @@ pub fn settings(method: desc::ScatterMethod) -> desc::SingleScatter {
 
 /// Writes a scene's JSON into `out/scenes/<name>.json`, so every figure's setup can
 /// be rendered again with `spindle render`.
-pub fn keep_scene(report: &Report, file: &str, scene: &desc::Scene) -> Result<PathBuf> {
+pub fn keep_scene(report: &Report, file: &str, scene: &desc::SceneDescription) -> Result<PathBuf> {
     let dir = report.out().join("scenes");
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let path = dir.join(file);

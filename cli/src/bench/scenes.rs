@@ -105,8 +105,12 @@ impl Model {
     }
 
     /// The scene: this model in a glass-like medium, seen by the benchmark camera.
-    pub fn scene(&self, film: desc::Film, single_scatter: desc::SingleScatter) -> desc::Scene {
-        desc::Scene {
+    pub fn scene(
+        &self,
+        film: desc::Film,
+        single_scatter: desc::SingleScatter,
+    ) -> desc::SceneDescription {
+        desc::SceneDescription {
             camera: desc::Camera {
                 position: [0.0, 0.3, 4.2],
                 look_at: [0.0, 0.0, 0.0],

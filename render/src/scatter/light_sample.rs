@@ -18,9 +18,9 @@
 
 use glam::DVec3;
 
-use super::prune::BoundingSphere;
 use crate::Rgb;
 use crate::light::Light;
+use crate::scatter::prune::cull::BoundingSphere;
 
 /// A point that lights a camera segment, for one camera sample.
 #[derive(Debug, Clone, Copy, PartialEq)]

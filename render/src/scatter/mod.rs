@@ -7,35 +7,19 @@
 //! the connection with its visibility tests (`connect`). [`describe_plan`] says in words which
 //! model runs for each object.
 //!
-//! The per-triangle mathematics lives here too, in f64 and independent of the scene:
-//! a triangle with interpolated normals ([`patch`]), the fixed ends of a path ([`ends`]),
-//! the damped Newton solver for refraction points ([`solve`]), the distance factor D
-//! ([`distance`]) and the contribution of one path ([`contribution`]); the interval method's edge
-//! crossings ([`edge`]) and per-triangle monotone branches, folds included ([`interval`]).
+//! Three wings: [`triangle`], the per-triangle mathematics in f64, independent of the scene;
+//! [`prune`], the conservative culling of triangles and BVH nodes; [`methods`], the estimators.
 //!
 //! Sign conventions, stated once for all of these modules: η = n_medium / n_outside > 1 (the
 //! medium is denser); the light is outside; the shading normal points outward, toward the light;
 //! the camera segment is `V(t) = origin + t·dir` with `dir` a unit vector, so t is a distance.
 
-pub mod bounds;
-pub mod connect;
-pub mod contribution;
-pub mod descent;
-pub mod distance;
-pub mod edge;
-pub mod edge_scans;
-pub mod ends;
-pub mod interval;
 pub mod light_sample;
 pub mod methods;
-pub mod patch;
 pub mod plan;
 pub mod prune;
-pub mod small_list;
-pub mod solve;
+pub mod triangle;
 
-#[cfg(test)]
-pub(crate) mod ground_truth;
 #[cfg(test)]
 mod tests;
 
@@ -45,12 +29,12 @@ use crate::Rgb;
 use crate::sampler::Sampler;
 use crate::scene::{Material, Scene};
 use crate::segment::Segment;
-use connect::Connection;
-use descent::DescentStack;
-use ends::PathEnds;
 use light_sample::sample_light;
+use methods::connect::Connection;
 pub use plan::describe_plan;
 use plan::{Model, object_bounds, plan_for};
+use prune::descent::DescentStack;
+use triangle::ends::PathEnds;
 
 /// Radiance arriving at `segment.origin`, inside the medium, travelling toward the camera (along
 /// `−segment.dir`), from light scattered once along the segment: the sum over the scene's lights

@@ -14,7 +14,7 @@
 
 use spindle_common::scene::{ScatterMethod, SingleScatter};
 
-use super::prune::BoundingSphere;
+use crate::scatter::prune::cull::BoundingSphere;
 use crate::scene::{Material, Object, Scene};
 
 /// Object size in mean free paths above which `auto` may use the straight-line model ([H15]

@@ -75,7 +75,8 @@ impl Setup {
             }],
             "integrator": {"single_scatter": self.single_scatter}
         });
-        let desc: desc::Scene = serde_json::from_value(scene).expect("test scene parses");
+        let desc: desc::SceneDescription =
+            serde_json::from_value(scene).expect("test scene parses");
         Scene::build(&desc, &Assets::default()).expect("test scene builds")
     }
 }
@@ -496,7 +497,7 @@ fn awkward_meshes_stay_finite() {
                                  "sigma_t": [1.0, 1.0, 1.0], "albedo": [0.9, 0.9, 0.9]}}}],
                 "integrator": {"single_scatter": {"method": method, "samples_per_segment": 16}}
             });
-            let desc: desc::Scene = serde_json::from_value(scene).unwrap();
+            let desc: desc::SceneDescription = serde_json::from_value(scene).unwrap();
             let mut assets = Assets::default();
             assets.insert(name.to_string(), obj.as_bytes().to_vec());
             let scene = Scene::build(&desc, &assets).expect("awkward mesh builds");

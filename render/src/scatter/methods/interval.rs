@@ -11,10 +11,10 @@ use spindle_common::stats::RenderStats;
 
 use crate::Rgb;
 use crate::sampler::Sampler;
-use crate::scatter::connect::Connection;
-use crate::scatter::descent::{DescentStack, for_each_candidate};
-use crate::scatter::edge_scans::EdgeScans;
-use crate::scatter::interval::{SampleRule, for_each_sample, triangle_intervals_with};
+use crate::scatter::methods::connect::Connection;
+use crate::scatter::methods::edge_scans::EdgeScans;
+use crate::scatter::prune::descent::{DescentStack, for_each_candidate};
+use crate::scatter::triangle::interval::{SampleRule, for_each_sample, triangle_intervals_with};
 
 /// The fractional part of the golden ratio, the stride of the jittered offsets.
 const GOLDEN: f64 = 0.618_033_988_749_894_9;

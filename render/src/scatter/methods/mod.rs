@@ -9,6 +9,8 @@
 //!   line (exact for η = 1);
 //! * [`reference`] — brute force for tests: no pruning, many Newton starts per triangle.
 
+pub mod connect;
+pub mod edge_scans;
 pub mod interval;
 pub mod point_sampling;
 pub mod reference;
@@ -16,9 +18,9 @@ pub mod straight_line;
 
 use glam::DVec3;
 
-use super::connect::Connection;
-use super::patch::TrianglePatch;
-use super::prune::SegmentQuery;
+use crate::scatter::methods::connect::Connection;
+use crate::scatter::prune::cull::SegmentQuery;
+use crate::scatter::triangle::patch::TrianglePatch;
 
 impl Connection<'_> {
     /// The pruning query of the camera points `V(t)`, `t ∈ [t_lo, t_hi]`, and this light point.

@@ -15,9 +15,11 @@ use spindle_common::stats::RenderStats;
 use super::CENTROID;
 use crate::Rgb;
 use crate::sampler::Sampler;
-use crate::scatter::connect::Connection;
-use crate::scatter::descent::{DescentStack, for_each_candidate};
-use crate::scatter::solve::{NewtonSettings, RefractionPath, Slice, newton, straight_line_guess};
+use crate::scatter::methods::connect::Connection;
+use crate::scatter::prune::descent::{DescentStack, for_each_candidate};
+use crate::scatter::triangle::solve::{
+    NewtonSettings, RefractionPath, Slice, newton, straight_line_guess,
+};
 
 /// The point-sampling estimate of the segment `[0, length]` lit by the connection's light point.
 pub fn estimate(

@@ -14,8 +14,10 @@ use spindle_common::stats::RenderStats;
 use super::plane_sides_allow;
 use crate::Rgb;
 use crate::sampler::Sampler;
-use crate::scatter::connect::Connection;
-use crate::scatter::solve::{NewtonSettings, RefractionPath, Slice, newton, straight_line_guess};
+use crate::scatter::methods::connect::Connection;
+use crate::scatter::triangle::solve::{
+    NewtonSettings, RefractionPath, Slice, newton, straight_line_guess,
+};
 
 /// Grid of starts per side: the starts are `((i + 1/3)/G, (j + 1/3)/G)` for `i + j < G`.
 const START_GRID: usize = 5;

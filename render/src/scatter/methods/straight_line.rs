@@ -23,7 +23,7 @@ use crate::Rgb;
 use crate::fresnel::reflectance;
 use crate::ray::Ray;
 use crate::sampler::Sampler;
-use crate::scatter::connect::Connection;
+use crate::scatter::methods::connect::Connection;
 
 /// The straight-line estimate of the segment `[0, length]` lit by the connection's light point.
 pub fn estimate(

@@ -1,22 +1,25 @@
-//! Rendering a whole frame in this process, with rayon over all cores (`--workers 0`).
+//! A whole frame rendered in this process: the CLI's `--workers 0` and the benchmarks share it,
+//! so both see exactly the tiles (and the pixels) a farm would assemble.
 
-use indicatif::ProgressBar;
-use spindle_common::image::Image;
+use spindle_common::image::{Image, ImageError};
 use spindle_common::stats::RenderStats;
 use spindle_common::tile::{TileRect, split_centre_first};
-use spindle_render::{Scene, render_tile_with_progress};
+
+use crate::scene::Scene;
+use crate::tile::render_tile_with_progress;
 
 /// Tile edge for in-process rendering: small enough for a lively preview order, large enough to
 /// keep every core busy inside a tile.
 const TILE_SIZE: u32 = 32;
 
 /// Renders `region` of the scene's film into a full-frame image (pixels outside the region stay
-/// black), centre tiles first, advancing `progress` by one per finished row of a tile.
-pub fn render_in_process(
+/// black), centre tiles first, calling `rows_done` with the number of rows of a tile as they
+/// finish. Rayon runs inside each tile, on the current pool.
+pub fn render_frame(
     scene: &Scene,
     region: TileRect,
-    progress: &ProgressBar,
-) -> anyhow::Result<(Image, RenderStats)> {
+    rows_done: &(dyn Fn(u64) + Sync),
+) -> Result<(Image, RenderStats), ImageError> {
     let film = scene.film();
     let mut image = Image::new(film.width, film.height);
     let mut stats = RenderStats::default();
@@ -26,7 +29,7 @@ pub fn render_in_process(
             y: region.y + tile.y,
             ..tile
         };
-        let pixels = render_tile_with_progress(scene, rect, &|rows| progress.inc(rows));
+        let pixels = render_tile_with_progress(scene, rect, rows_done);
         stats.add(&pixels.stats);
         image.insert_tile(&pixels)?;
     }

@@ -10,10 +10,10 @@
 use glam::DVec3;
 use spindle_common::stats::RenderStats;
 
-use super::ends::PathEnds;
-use super::patch::{Residual, TrianglePatch};
-use super::small_list::SmallList;
-use super::solve::{NewtonSettings, Slice, is_physical, newton};
+use crate::scatter::triangle::ends::PathEnds;
+use crate::scatter::triangle::patch::{Residual, TrianglePatch};
+use crate::scatter::triangle::small_list::SmallList;
+use crate::scatter::triangle::solve::{NewtonSettings, Slice, is_physical, newton};
 
 /// The three edges of a triangle in barycentric coordinates.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -478,7 +478,7 @@ fn push_crossing<const N: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scatter::ground_truth::SplitMix;
+    use crate::scatter::triangle::ground_truth::SplitMix;
     use glam::DVec3;
 
     /// The batched scan is `skew_sign` point by point, to the bit: on random points and normals

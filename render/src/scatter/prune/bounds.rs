@@ -10,9 +10,9 @@
 
 use glam::DVec3;
 
-use super::prune::{BoundingSphere, NormalCone, angle_between};
 use crate::bvh::Bvh;
 use crate::mesh::TriangleMesh;
+use crate::scatter::prune::cull::{BoundingSphere, NormalCone, angle_between};
 
 /// The plane of a triangle: unit geometric normal `n` (the winding's, outward on a closed mesh)
 /// and offset `n·p0`.

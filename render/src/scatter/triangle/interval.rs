@@ -9,7 +9,7 @@
 //!
 //! 1. the t-range is first restricted by the triangle's plane (V behind it, L in front, §2.3);
 //! 2. every point where the curve enters or leaves the region `triangle × t-range` is found: edge
-//!    crossings (see [`edge`](super::edge)) and solutions inside the triangle at the range ends
+//!    crossings (see [`edge`](crate::scatter::triangle::edge)) and solutions inside the triangle at the range ends
 //!    (the segment's own entry or exit, or the plane's bound); arcs can also end inside the
 //!    triangle where the light grazes the shading normal (`c_L → 0`, contribution → 0), so the
 //!    curve's crossings with six lines across the triangle seed arcs that touch no boundary;
@@ -30,20 +30,20 @@
 use glam::DVec3;
 use spindle_common::stats::RenderStats;
 
-use super::bounds::TrianglePlane;
-use super::contribution::path_contribution;
-use super::edge::{
+use crate::Rgb;
+use crate::medium::Medium;
+use crate::scatter::prune::bounds::TrianglePlane;
+use crate::scatter::triangle::contribution::path_contribution;
+use crate::scatter::triangle::edge::{
     BarycentricLine, Crossing, Edge, LineScan, edge_crossings, line_crossings, scan_line,
 };
-use super::ends::PathEnds;
-use super::patch::TrianglePatch;
-use super::small_list::SmallList;
-use super::solve::{
+use crate::scatter::triangle::ends::PathEnds;
+use crate::scatter::triangle::patch::TrianglePatch;
+use crate::scatter::triangle::small_list::SmallList;
+use crate::scatter::triangle::solve::{
     MIN_COS_LIGHT, NewtonSettings, RefractionPath, Slice, is_physical, newton, plane_piercing,
     plane_refraction_guess, solve_at,
 };
-use crate::Rgb;
-use crate::medium::Medium;
 
 /// At most this many monotone branches per triangle (more are dropped, and counted in
 /// `RenderStats::capacity_drops`).
@@ -998,7 +998,7 @@ pub fn for_each_sample(
 
 /// The interval's contribution `(t_max − t_min)/K · Σ_i C(t_i) · Vis_i` ([H15] eq. 19) per RGB
 /// channel, with C from [`path_contribution`] (η² included, `T(V_min)` excluded: see
-/// [`contribution`](super::contribution)) for a point light of `intensity`, and `visible(path)`
+/// [`contribution`](crate::scatter::triangle::contribution)) for a point light of `intensity`, and `visible(path)`
 /// the caller's shadow ray P → L (and V → P inside) test.
 #[allow(clippy::too_many_arguments)]
 pub fn interval_contribution(
@@ -1033,10 +1033,10 @@ pub fn interval_contribution(
 mod tests {
     use super::*;
     use crate::medium::PhaseFunction;
-    use crate::scatter::ground_truth::{
+    use crate::scatter::triangle::ground_truth::{
         SplitMix, flat_plane_integral_setup, flat_refraction_point,
     };
-    use crate::scatter::solve::solve_all_at;
+    use crate::scatter::triangle::solve::solve_all_at;
 
     /// Sums the contributions of every interval with K midpoint samples, divided by η² to compare
     /// with the end-to-end formula of physics.md §1.5 (see `contribution`).

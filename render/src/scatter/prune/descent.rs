@@ -14,8 +14,8 @@
 use spindle_common::scene::Pruning;
 use spindle_common::stats::RenderStats;
 
-use super::bounds::facing_bounds;
-use super::prune::SegmentQuery;
+use crate::scatter::prune::bounds::facing_bounds;
+use crate::scatter::prune::cull::SegmentQuery;
 use crate::scene::Object;
 
 /// A triangle of the object that may hold refraction points, and the `t`-range to search on it:
@@ -142,7 +142,7 @@ mod tests {
     use crate::bvh::Bvh;
     use crate::medium::{Medium, PhaseFunction};
     use crate::procedural::bumpy_sphere;
-    use crate::scatter::bounds::PruneBounds;
+    use crate::scatter::prune::bounds::PruneBounds;
     use crate::scene::{Dielectric, Material};
 
     fn object() -> Object {

@@ -13,13 +13,13 @@
 use glam::DVec3;
 use spindle_common::stats::RenderStats;
 
-use super::contribution::path_contribution;
-use super::ends::PathEnds;
-use super::light_sample::LightPoint;
-use super::solve::RefractionPath;
 use crate::Rgb;
 use crate::medium::Medium;
 use crate::ray::{OFFSET_SCALE, Ray};
+use crate::scatter::light_sample::LightPoint;
+use crate::scatter::triangle::contribution::path_contribution;
+use crate::scatter::triangle::ends::PathEnds;
+use crate::scatter::triangle::solve::RefractionPath;
 use crate::scene::{Object, Scene};
 
 /// Relative slack on distances compared along a visibility ray.

@@ -11,11 +11,11 @@
 use glam::DVec3;
 use spindle_common::stats::RenderStats;
 
-use super::distance::distance_factor;
-use super::ends::PathEnds;
-use super::patch::{Residual, TrianglePatch};
-use super::small_list::SmallList;
 use crate::fresnel;
+use crate::scatter::triangle::distance::distance_factor;
+use crate::scatter::triangle::ends::PathEnds;
+use crate::scatter::triangle::patch::{Residual, TrianglePatch};
+use crate::scatter::triangle::small_list::SmallList;
 
 /// Barycentric slack of the inside-triangle test, so a path exactly on a shared edge is kept.
 pub const INSIDE_TOLERANCE: f64 = 1e-9;
@@ -514,7 +514,7 @@ pub fn plane_piercing(patch: &TrianglePatch, ends: &PathEnds) -> Option<([f64; 3
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scatter::ground_truth::{curved_patch, flat_cases, flat_refraction_point};
+    use crate::scatter::triangle::ground_truth::{curved_patch, flat_cases, flat_refraction_point};
 
     const TIGHT: f64 = 1e-14;
 

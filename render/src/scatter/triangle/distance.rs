@@ -15,7 +15,7 @@
 
 use glam::DVec3;
 
-use super::patch::{Residual, TrianglePatch};
+use crate::scatter::triangle::patch::{Residual, TrianglePatch};
 
 /// D for a flat triangle, physics.md eq. (3):
 /// `(d_V + η d_L)·(d_V cosθ_L/cosθ_V + η d_L cosθ_V/cosθ_L)`, cosines against the normal.
@@ -86,11 +86,13 @@ pub fn distance_factor(patch: &TrianglePatch, eta: f64, r: &Residual) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scatter::ends::PathEnds;
-    use crate::scatter::ground_truth::{
+    use crate::scatter::triangle::ends::PathEnds;
+    use crate::scatter::triangle::ground_truth::{
         SplitMix, backward_fd_distance, curved_patch, flat_cases, forward_fd_distance,
     };
-    use crate::scatter::solve::{NewtonSettings, RefractionPath, solve_at, straight_line_guess};
+    use crate::scatter::triangle::solve::{
+        NewtonSettings, RefractionPath, solve_at, straight_line_guess,
+    };
 
     fn rel(x: f64, y: f64) -> f64 {
         (x / y - 1.0).abs()

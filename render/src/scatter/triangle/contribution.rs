@@ -6,10 +6,10 @@
 //! therefore includes the η² of the irradiance inside the medium (physics.md eq. 1) and does NOT
 //! include `T(V_min)`: the two cancel the throughput's 1/η² exactly as [H15] eq. 10 assumes.
 
-use super::ends::PathEnds;
-use super::solve::RefractionPath;
 use crate::Rgb;
 use crate::medium::Medium;
+use crate::scatter::triangle::ends::PathEnds;
+use crate::scatter::triangle::solve::RefractionPath;
 
 /// `C = σ_s · p(ω_V·(−r̂)) · T_P · I · η² · e^{−σ_t (t + d_V)} / D` for one path at camera
 /// parameter `path.t`: the radiance toward the camera at V per unit length of the segment, from a
@@ -31,9 +31,9 @@ pub fn path_contribution(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scatter::ground_truth::gauss_legendre;
-    use crate::scatter::patch::TrianglePatch;
-    use crate::scatter::solve::{NewtonSettings, solve_at, straight_line_guess};
+    use crate::scatter::triangle::ground_truth::gauss_legendre;
+    use crate::scatter::triangle::patch::TrianglePatch;
+    use crate::scatter::triangle::solve::{NewtonSettings, solve_at, straight_line_guess};
     use glam::DVec3;
 
     /// The physics.md §1.5 end-to-end flat-plane integral: segment (0.3, −0.2, −0.05) →
@@ -53,7 +53,8 @@ mod tests {
             [DVec3::Z; 3],
         )
         .unwrap();
-        let (ends, length, medium) = super::super::ground_truth::flat_plane_integral_setup();
+        let (ends, length, medium) =
+            crate::scatter::triangle::ground_truth::flat_plane_integral_setup();
         let settings = NewtonSettings::new(1e-14, (0.0, length));
         let integrand = |t: f64| {
             let guess = straight_line_guess(&patch, &ends, t).unwrap();

@@ -6,8 +6,8 @@
 
 use glam::DVec3;
 
-use super::ends::PathEnds;
-use super::patch::TrianglePatch;
+use crate::scatter::triangle::ends::PathEnds;
+use crate::scatter::triangle::patch::TrianglePatch;
 
 /// A tiny seeded generator (SplitMix64) for reproducible property tests.
 pub struct SplitMix(pub u64);

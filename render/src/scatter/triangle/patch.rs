@@ -6,8 +6,8 @@
 
 use glam::DVec3;
 
-use super::bounds::facing_bounds;
-use super::ends::PathEnds;
+use crate::scatter::prune::bounds::facing_bounds;
+use crate::scatter::triangle::ends::PathEnds;
 
 /// Relative threshold below which a triangle is degenerate: `‖E1×E2‖ < DEGENERATE · max edge²`,
 /// i.e. the sine of its flattest angle (times an edge ratio) is below 1e-7 (physics.md §2.5 item 7).
@@ -316,7 +316,7 @@ impl TrianglePatch {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scatter::ground_truth::{SplitMix, curved_patch};
+    use crate::scatter::triangle::ground_truth::{SplitMix, curved_patch};
 
     fn random_unit(rng: &mut SplitMix) -> DVec3 {
         loop {
@@ -448,8 +448,9 @@ mod tests {
     #[test]
     fn row_tangent_is_in_the_kernel() {
         let (patch, ends) = curved_patch();
-        let settings = crate::scatter::solve::NewtonSettings::new(1e-14, (0.0, 0.0));
-        let (path, _) = crate::scatter::solve::solve_at(&patch, &ends, 0.0, (0.3, 0.3), &settings);
+        let settings = crate::scatter::triangle::solve::NewtonSettings::new(1e-14, (0.0, 0.0));
+        let (path, _) =
+            crate::scatter::triangle::solve::solve_at(&patch, &ends, 0.0, (0.3, 0.3), &settings);
         let path = path.expect("reference path");
         let r = patch.residual(&ends, 0.0, path.a, path.b).unwrap();
         let g = r.tangent().expect("rank 2");

@@ -12,9 +12,9 @@ use std::collections::HashMap;
 
 use foldhash::fast::FixedState;
 
-use super::edge::{Edge, LineScan, scan_edge};
-use super::ends::PathEnds;
 use crate::mesh::TriangleMesh;
+use crate::scatter::triangle::edge::{Edge, LineScan, scan_edge};
+use crate::scatter::triangle::ends::PathEnds;
 
 /// The scans of one query, by edge. Reused across queries ([`EdgeScans::clear`]) so the hot loop
 /// does not allocate.
@@ -75,8 +75,8 @@ impl EdgeScans {
 mod tests {
     use super::*;
     use crate::procedural::bumpy_sphere;
-    use crate::scatter::edge::{LINE_SCAN, scan_line, skew};
-    use crate::scatter::patch::TrianglePatch;
+    use crate::scatter::triangle::edge::{LINE_SCAN, scan_line, skew};
+    use crate::scatter::triangle::patch::TrianglePatch;
     use glam::DVec3;
 
     /// Every triangle gets the scan of its own edges (as from its own patch, up to rounding), and
