@@ -28,3 +28,28 @@ impl PathEnds {
         self.origin + t * self.dir
     }
 }
+
+/// A closed range of depths `t` along the camera segment, `lo ≤ hi` (equal for a single camera
+/// point, as in point sampling).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DepthRange {
+    /// The nearest depth.
+    pub lo: f64,
+    /// The farthest depth.
+    pub hi: f64,
+}
+
+impl DepthRange {
+    /// The range `[lo, hi]`.
+    #[inline]
+    pub fn new(lo: f64, hi: f64) -> Self {
+        debug_assert!(lo <= hi, "DepthRange: {lo} > {hi}");
+        DepthRange { lo, hi }
+    }
+
+    /// Whether `t` lies in the range, ends included.
+    #[inline]
+    pub fn contains(&self, t: f64) -> bool {
+        t >= self.lo && t <= self.hi
+    }
+}
