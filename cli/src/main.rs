@@ -5,7 +5,6 @@ mod api;
 mod bench;
 mod cancel;
 mod fetch;
-mod load;
 mod local_farm;
 mod progress;
 mod render;

@@ -22,7 +22,7 @@ use spindle_common::tile::TileRect;
 use spindle_render::scatter::describe_plan;
 use spindle_render::{Scene, render_pixel};
 
-use crate::load::load_scene;
+use spindle_common::scene_files::load_scene;
 
 /// `spindle render` options.
 #[derive(Debug, clap::Args)]

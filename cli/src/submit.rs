@@ -13,9 +13,9 @@ use spindle_common::protocol::{DEFAULT_TILE_SIZE, JobInfo, SubmitJob, asset_hash
 use spindle_common::scene::SceneDescription;
 
 use crate::api::Api;
-use crate::load::load_scene;
 use crate::progress::{Wait, wait_for};
 use crate::secret::random_hex;
+use spindle_common::scene_files::load_scene;
 
 /// `spindle submit` options.
 #[derive(Debug, clap::Args)]

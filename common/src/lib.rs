@@ -6,6 +6,7 @@
 pub mod image;
 pub mod protocol;
 pub mod scene;
+pub mod scene_files;
 pub mod stats;
 pub mod tile;
 pub mod validate;

@@ -17,7 +17,7 @@ use super::plot::{self, Labels, Mark, Series};
 use super::report::{Report, Table, sig};
 use super::scenes::{Model, SHARED_MESHES, film, shared_meshes};
 use super::{BenchArgs, keep_scene, settings};
-use crate::load::load_scene;
+use spindle_common::scene_files::load_scene;
 use spindle_render::render_frame;
 
 const PEAK_KEY: &str = "peak_rss_kib";
