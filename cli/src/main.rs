@@ -2,7 +2,6 @@
 //! follow it. A thin shell: each subcommand lives in its own module.
 
 mod api;
-mod bench;
 mod cancel;
 mod fetch;
 mod local_farm;
@@ -48,15 +47,6 @@ enum Command {
     Fetch(fetch::FetchArgs),
     /// Cancel a job.
     Cancel(cancel::CancelArgs),
-    /// Measure speed against accuracy, scaling, pruning, memory and the farm; write CSV and PNG
-    /// plots.
-    Bench(bench::BenchArgs),
-    /// (Internal, for `bench`.) Render a scene in process and print the peak resident memory.
-    #[command(hide = true)]
-    BenchProbe {
-        /// The scene file (JSON).
-        scene: std::path::PathBuf,
-    },
 }
 
 fn main() -> ExitCode {
@@ -70,21 +60,6 @@ fn main() -> ExitCode {
         .with_ansi(std::io::stderr().is_terminal())
         .init();
     let cli = Cli::parse();
-    // The benchmarks render on their own threads and start their own processes: no runtime.
-    let synchronous = match &cli.command {
-        Command::Bench(args) => Some(bench::run(args)),
-        Command::BenchProbe { scene } => Some(bench::memory::probe(scene)),
-        _ => None,
-    };
-    if let Some(result) = synchronous {
-        return match result {
-            Ok(()) => ExitCode::SUCCESS,
-            Err(e) => {
-                eprintln!("spindle: {e:#}");
-                ExitCode::FAILURE
-            }
-        };
-    }
     let runtime = match tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()
@@ -112,8 +87,5 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Status(args) => status::run(&api()?, args).await,
         Command::Fetch(args) => fetch::run(&api()?, args).await,
         Command::Cancel(args) => cancel::run(&api()?, args).await,
-        Command::Bench(_) | Command::BenchProbe { .. } => {
-            anyhow::bail!("the benchmarks run before the runtime starts")
-        }
     }
 }

@@ -1,10 +1,11 @@
 //! Study 5: peak resident memory of a renderer process against the triangle count.
 //!
 //! The method needs nothing beyond the mesh and its BVH, so memory should grow linearly with
-//! the triangles, from a fixed floor. Each point is a fresh child process, `spindle bench-probe
-//! SCENE.json`, which does what `spindle render --workers 0` does (read the scene and its meshes,
-//! build, render every tile in process) and then prints its own high-water mark `VmHWM` from
-//! `/proc/self/status`: exact, where polling another process's status could miss the peak.
+//! the triangles, from a fixed floor. Each point is a fresh child process of this binary,
+//! `spindle-bench memory-probe SCENE.json` ([`probe`]), which does what `spindle render
+//! --workers 0` does (read the scene and its meshes, build, render every tile in process) and
+//! then prints its own high-water mark `VmHWM` from `/proc/self/status`: exact, where polling
+//! another process's status could miss the peak.
 
 use std::path::Path;
 use std::process::Command;
@@ -12,13 +13,14 @@ use std::process::Command;
 use anyhow::{Context, Result, bail};
 use spindle_common::scene::ScatterMethod;
 
-use super::metric::linear_fit;
-use super::plot::{self, Labels, Mark, Series};
-use super::report::{Report, Table, sig};
-use super::scenes::{Model, SHARED_MESHES, film, shared_meshes};
-use super::{BenchArgs, keep_scene, settings};
 use spindle_common::scene_files::load_scene;
 use spindle_render::render_frame;
+
+use crate::BenchArgs;
+use crate::metric::linear_fit;
+use crate::plot::{self, Labels, Mark, Series};
+use crate::report::{Report, Table, keep_scene, sig};
+use crate::scenes::{Model, SHARED_MESHES, film, settings, shared_meshes};
 
 const PEAK_KEY: &str = "peak_rss_kib";
 
@@ -58,9 +60,9 @@ pub fn probe(scene_path: &Path) -> Result<()> {
 }
 
 fn measure(scene_path: &Path) -> Result<u64> {
-    let exe = std::env::current_exe().context("cannot find the spindle executable")?;
+    let exe = std::env::current_exe().context("cannot find the spindle-bench executable")?;
     let output = Command::new(exe)
-        .arg("bench-probe")
+        .arg("memory-probe")
         .arg(scene_path)
         .output()
         .context("cannot start the memory probe")?;

@@ -11,10 +11,11 @@ use spindle_common::scene::{Pruning, ScatterMethod, SingleScatter};
 use spindle_common::stats::RenderStats;
 use spindle_common::tile::TileRect;
 
-use super::metric::relative_rmse;
-use super::report::{Report, Table, secs, sig};
-use super::scenes::{Model, film};
-use super::{BenchArgs, Runner, build, keep_scene};
+use crate::BenchArgs;
+use crate::metric::relative_rmse;
+use crate::report::{Report, Table, keep_scene, secs, sig};
+use crate::runner::Runner;
+use crate::scenes::{Model, build, film};
 
 const FILM: u32 = 128;
 

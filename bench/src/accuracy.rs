@@ -16,11 +16,12 @@ use anyhow::Result;
 use spindle_common::scene::{ScatterMethod, SingleScatter};
 use spindle_common::tile::TileRect;
 
-use super::metric::{Reached, relative_rmse, time_to_reach};
-use super::plot::{self, Labels, Mark, Series};
-use super::report::{Report, Table, secs, sig};
-use super::scenes::{Model, SHARED_MESHES, film, shared_meshes};
-use super::{BenchArgs, Runner, build, full_frame, keep_scene, settings};
+use crate::BenchArgs;
+use crate::metric::{Reached, relative_rmse, time_to_reach};
+use crate::plot::{self, Labels, Mark, Series};
+use crate::report::{Report, Table, keep_scene, secs, sig};
+use crate::runner::{Runner, full_frame};
+use crate::scenes::{Model, SHARED_MESHES, build, film, settings, shared_meshes};
 
 /// The Newton tolerance the renderer uses by default (the "K = 1" point of the paper).
 const DEFAULT_TOLERANCE: f64 = 1e-10;

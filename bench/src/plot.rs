@@ -2,7 +2,7 @@
 //!
 //! plotters draws into an RGB buffer (its bitmap backend, with no image-encoder feature) and the
 //! workspace's `png` crate writes it. Text goes through plotters' `ab_glyph` feature with a font
-//! shipped in `cli/assets/` (DejaVu Sans, licence beside it), so no system font libraries are
+//! shipped in `bench/assets/` (DejaVu Sans, licence beside it), so no system font libraries are
 //! needed on a fresh machine.
 
 use std::path::Path;
@@ -11,7 +11,7 @@ use std::sync::Once;
 use anyhow::{Context, Result, anyhow};
 use plotters::prelude::*;
 
-const FONT: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
+const FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
 const WIDTH: u32 = 900;
 const HEIGHT: u32 = 600;
 
@@ -45,8 +45,10 @@ fn register_font() -> Result<()> {
     static ONCE: Once = Once::new();
     let mut result = Ok(());
     ONCE.call_once(|| {
-        result = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT)
-            .map_err(|_| anyhow!("the shipped plot font cli/assets/DejaVuSans.ttf is not a font"));
+        result =
+            plotters::style::register_font("sans-serif", FontStyle::Normal, FONT).map_err(|_| {
+                anyhow!("the shipped plot font bench/assets/DejaVuSans.ttf is not a font")
+            });
     });
     result
 }

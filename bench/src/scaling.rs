@@ -13,11 +13,12 @@ use spindle_common::scene::ScatterMethod;
 use spindle_common::tile::TileRect;
 use spindle_render::Scene;
 
-use super::metric::loglog_fit;
-use super::plot::{self, Labels, Mark, Series};
-use super::report::{Report, Table, secs, sig};
-use super::scenes::{Model, SHARED_MESHES, film, shared_meshes};
-use super::{BenchArgs, Runner, build, keep_scene, settings};
+use crate::BenchArgs;
+use crate::metric::loglog_fit;
+use crate::plot::{self, Labels, Mark, Series};
+use crate::report::{Report, Table, keep_scene, secs, sig};
+use crate::runner::Runner;
+use crate::scenes::{Model, SHARED_MESHES, build, film, settings, shared_meshes};
 
 const FILM: u32 = 128;
 /// The rendered square in the middle of the film, inside the spheres' silhouettes.

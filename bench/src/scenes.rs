@@ -10,8 +10,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use spindle_common::scene as desc;
-use spindle_render::Assets;
 use spindle_render::obj::parse_obj;
+use spindle_render::{Assets, Scene};
 
 /// The meshes of `../shared/meshes` the issue names, smallest first.
 pub const SHARED_MESHES: [&str; 4] = [
@@ -172,4 +172,22 @@ pub fn shared_meshes(dir: &Path, names: &[&str]) -> (Vec<Model>, Vec<String>) {
         }
     }
     (found, skipped)
+}
+
+/// Builds `model` with `single_scatter` settings on `film`.
+pub fn build(
+    model: &Model,
+    film: desc::Film,
+    single_scatter: desc::SingleScatter,
+) -> Result<Scene> {
+    let desc = model.scene(film, single_scatter);
+    Scene::build(&desc, &model.assets).with_context(|| format!("benchmark scene {}", model.name))
+}
+
+/// Single-scatter settings for `method`, everything else at its default.
+pub fn settings(method: desc::ScatterMethod) -> desc::SingleScatter {
+    desc::SingleScatter {
+        method,
+        ..desc::SingleScatter::default()
+    }
 }

@@ -1,7 +1,7 @@
 //! Study 6: the farm's throughput and the coordinator's overhead per tile.
 //!
-//! One job (a bumpy sphere) rendered by child processes of this `spindle`, timed by the wall
-//! clock around each child: the single-process renderer (`render --workers 0`, rayon over both
+//! One job (a bumpy sphere) rendered by child processes of the `spindle` command built beside
+//! this binary, timed by the wall clock around each child: the single-process renderer (`render --workers 0`, rayon over both
 //! cores), the embedded local farm with 1 worker (which gets both cores' threads), 2 workers with
 //! one thread each, and 1 worker pinned to one core (`taskset -c 0`, so it runs one thread) as
 //! the one-worker baseline of the "two workers ≥ 1.8×" target. Every child reads the scene,
@@ -10,7 +10,7 @@
 //! overhead (lease, upload, assembly), for tile sizes 16, 32 and 64; a line fitted through the
 //! three sizes splits it into a fixed start-up cost and a cost per tile.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
@@ -18,10 +18,10 @@ use anyhow::{Context, Result, bail};
 use spindle_common::protocol::DEFAULT_TILE_SIZE;
 use spindle_common::scene::ScatterMethod;
 
-use super::metric::linear_fit;
-use super::report::{Report, Table, secs, sig};
-use super::scenes::{Model, film};
-use super::{BenchArgs, keep_scene, settings};
+use crate::BenchArgs;
+use crate::metric::linear_fit;
+use crate::report::{Report, Table, keep_scene, secs, sig};
+use crate::scenes::{Model, film, settings};
 
 /// How a child process renders.
 #[derive(Clone, Copy)]
@@ -33,17 +33,30 @@ struct Setup {
     tile_size: u32,
 }
 
-/// Runs `spindle render` as a child `repeats` times; the fastest wall time counts.
-fn time_child(scene: &Path, out: &Path, setup: Setup, repeats: usize) -> Result<f64> {
-    let exe = std::env::current_exe().context("cannot find the spindle executable")?;
+/// The `spindle` command built beside this binary (the same `target/<profile>/` folder).
+fn spindle_exe() -> Result<PathBuf> {
+    let bench = std::env::current_exe().context("cannot find the spindle-bench executable")?;
+    let exe = bench.with_file_name(format!("spindle{}", std::env::consts::EXE_SUFFIX));
+    if !exe.is_file() {
+        bail!(
+            "the throughput study runs the `spindle` command, but there is none at {}: \
+             build it first with `cargo build --release -p spindle-cli` (the same profile as spindle-bench)",
+            exe.display()
+        );
+    }
+    Ok(exe)
+}
+
+/// Runs `spindle render` (`exe`) as a child `repeats` times; the fastest wall time counts.
+fn time_child(exe: &Path, scene: &Path, out: &Path, setup: Setup, repeats: usize) -> Result<f64> {
     let mut best = f64::INFINITY;
     for _ in 0..repeats {
         let mut command = if setup.one_core {
             let mut c = Command::new("taskset");
-            c.arg("-c").arg("0").arg(&exe);
+            c.arg("-c").arg("0").arg(exe);
             c
         } else {
-            Command::new(&exe)
+            Command::new(exe)
         };
         command
             .arg("render")
@@ -81,21 +94,22 @@ fn taskset_works() -> bool {
 
 /// Runs study 6.
 pub fn run(report: &mut Report, args: &BenchArgs) -> Result<()> {
+    let exe = spindle_exe()?;
     let (model, size, repeats) = if args.quick {
         (Model::bumpy(4), 64, 1)
     } else {
         (Model::bumpy(5), 128, 2)
     };
     report.line("");
-    report.line("== 6. the farm ==");
+    report.line("== 6. farm throughput ==");
     report.line(format!(
         "setup: {} ({} triangles), interval K=1, {size}x{size} film, 1 spp; child `spindle render` \
          processes timed by wall clock (scene read + build + render + EXR), best of {repeats}",
         model.name, model.triangles
     ));
     let desc = model.scene(film(size, 1), settings(ScatterMethod::Interval));
-    let scene = keep_scene(report, "farm.json", &desc)?;
-    let out = report.out().join("farm-render.exr");
+    let scene = keep_scene(report, "throughput.json", &desc)?;
+    let out = report.out().join("throughput-render.exr");
     let pixels = (size * size) as f64;
 
     let single = Setup {
@@ -104,7 +118,7 @@ pub fn run(report: &mut Report, args: &BenchArgs) -> Result<()> {
         one_core: false,
         tile_size: DEFAULT_TILE_SIZE,
     };
-    let t_single = time_child(&scene, &out, single, repeats)?;
+    let t_single = time_child(&exe, &scene, &out, single, repeats)?;
     let mut table = Table::new(&[
         "setup",
         "tile_size",
@@ -137,7 +151,7 @@ pub fn run(report: &mut Report, args: &BenchArgs) -> Result<()> {
                 one_core: false,
                 tile_size,
             };
-            let t = time_child(&scene, &out, setup, repeats)?;
+            let t = time_child(&exe, &scene, &out, setup, repeats)?;
             let overhead = t - t_single;
             if workers == 1 {
                 one_worker_overheads.push((tiles, overhead));
@@ -169,7 +183,7 @@ pub fn run(report: &mut Report, args: &BenchArgs) -> Result<()> {
             one_core: true,
             tile_size: DEFAULT_TILE_SIZE,
         };
-        let t = time_child(&scene, &out, setup, repeats)?;
+        let t = time_child(&exe, &scene, &out, setup, repeats)?;
         one_core = Some(t);
         table.push(vec![
             setup.name.into(),
@@ -185,7 +199,7 @@ pub fn run(report: &mut Report, args: &BenchArgs) -> Result<()> {
         report.line("skipping the one-core worker: `taskset` is not available");
     }
     report.line("overhead = (farm time - single-process time) / tiles; share = that over the single-process time");
-    report.table("farm", &table)?;
+    report.table("throughput", &table)?;
     if let (Some(one), Some(two)) = (one_core, two_workers_default) {
         report.line(format!(
             "two workers (1 thread each) vs one worker on one core: {}x throughput (target >= 1.8x)",
