@@ -1,8 +1,8 @@
 //! The coordinator's durable state in SQLite: jobs, workers, leased and finished tiles, and
 //! tile failures.
 //!
-//! The database is the truth a restarted coordinator resumes from; the in-memory farm
-//! ([`crate::jobs::Farm`]) mirrors it and every change is written here first. WAL with
+//! The database is the truth a restarted coordinator resumes from; the in-memory ledger
+//! ([`crate::jobs::Ledger`]) mirrors it and every change is written here first. WAL with
 //! `synchronous = NORMAL`: a commit survives the process being killed at any moment (it is in
 //! the OS's page cache) without an fsync per tile. Schema changes are numbered migrations
 //! applied in order and tracked with `PRAGMA user_version`.

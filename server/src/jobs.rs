@@ -1,16 +1,17 @@
-//! The farm's jobs and tiles in memory: submission, progress, cancellation, deletion.
+//! The coordinator's ledger: every job, tile and worker in memory, written through to the
+//! database; submission, progress, cancellation, deletion.
 //!
-//! [`Farm`] mirrors the database ([`crate::db`]) and owns the connection, so one lock orders
+//! [`Ledger`] mirrors the database ([`crate::db`]) and owns the connection, so one lock orders
 //! every change: each change is written to the database first and applied in memory only once
-//! the write succeeded. A restarted coordinator rebuilds the farm from the database with
-//! [`Farm::load`]. Leasing, heartbeats, uploads and failures are in [`crate::lease`].
+//! the write succeeded. A restarted coordinator rebuilds the ledger from the database with
+//! [`Ledger::load`]. Leasing, heartbeats, uploads and failures are in [`crate::lease`].
 
 use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
 use std::sync::Arc;
 use std::time::Duration;
 
 use rusqlite::Connection;
-use spindle_common::protocol::{JobInfo, JobSpec, JobState};
+use spindle_common::protocol::{JobInfo, JobSpec, JobState, SubmitJob};
 use spindle_common::stats::RenderStats;
 use spindle_common::tile::{TileRect, split_centre_first};
 use tokio::time::Instant;
@@ -24,7 +25,7 @@ pub const TILE_FAILURE_LIMIT: usize = 3;
 pub const WORKER_STRIKE_LIMIT: usize = 3;
 
 /// Every job and worker the coordinator knows, with the database they are stored in.
-pub struct Farm {
+pub struct Ledger {
     pub(crate) db: Connection,
     pub(crate) jobs: BTreeMap<u64, Job>,
     pub(crate) workers: HashSet<u64>,
@@ -166,7 +167,7 @@ impl Job {
     }
 }
 
-/// A validated submission, ready to be stored.
+/// An admitted submission, ready to be stored.
 pub struct NewJob {
     pub spec: JobSpec,
     pub priority: i32,
@@ -176,15 +177,32 @@ pub struct NewJob {
     pub request_hash: String,
 }
 
-impl Farm {
-    /// Rebuilds the farm from the database. Leases that were live when the previous process
+impl NewJob {
+    /// The job `submit` asks for; a retry with the same `idempotency_key` must hash the same.
+    pub fn new(submit: SubmitJob, idempotency_key: Option<String>) -> Result<NewJob, Error> {
+        let canonical = serde_json::to_vec(&submit).map_err(anyhow::Error::from)?;
+        Ok(NewJob {
+            request_hash: blake3::hash(&canonical).to_hex().to_string(),
+            spec: JobSpec {
+                scene: submit.scene,
+                assets: submit.assets,
+                tile_size: submit.tile_size,
+            },
+            priority: submit.priority,
+            idempotency_key,
+        })
+    }
+}
+
+impl Ledger {
+    /// Rebuilds the ledger from the database. Leases that were live when the previous process
     /// stopped get `grace` from `now` to be renewed before they expire.
     pub fn load(
         db: Connection,
         lease_ttl: Duration,
         grace: Duration,
         now: Instant,
-    ) -> anyhow::Result<Farm> {
+    ) -> anyhow::Result<Ledger> {
         let mut jobs = BTreeMap::new();
         let mut keys = HashMap::new();
         for row in db::load_jobs(&db)? {
@@ -235,7 +253,7 @@ impl Farm {
             jobs.insert(row.id, job);
         }
         let workers = db::load_workers(&db)?.into_iter().collect();
-        Ok(Farm {
+        Ok(Ledger {
             db,
             jobs,
             workers,

@@ -21,18 +21,18 @@ use tokio::time::Instant;
 
 use crate::db;
 use crate::error::Error;
-use crate::jobs::{Farm, Job, TILE_FAILURE_LIMIT, TileStatus, WORKER_STRIKE_LIMIT, now_ms};
+use crate::jobs::{Job, Ledger, TILE_FAILURE_LIMIT, TileStatus, WORKER_STRIKE_LIMIT, now_ms};
 
 /// What to do with an upload that passed the checks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum UploadPlan {
     /// The tile is already done with this result: acknowledge, store nothing.
     Duplicate,
-    /// Write the tile's file, then [`Farm::record_upload`].
+    /// Write the tile's file, then [`Ledger::record_upload`].
     Store,
 }
 
-impl Farm {
+impl Ledger {
     /// Checks a worker id.
     pub fn check_worker(&self, worker: u64) -> Result<(), Error> {
         if self.workers.contains(&worker) {

@@ -7,6 +7,7 @@
 //! never links the renderer: it moves tiles, it does not make them.
 #![forbid(unsafe_code)]
 
+pub mod admission;
 pub mod api;
 pub mod assemble;
 pub mod assets;
@@ -32,7 +33,7 @@ pub use config::{Args, Config};
 pub use limits::Limits;
 
 use assets::AssetStore;
-use jobs::Farm;
+use jobs::Ledger;
 use tile_store::TileStore;
 
 /// Everything a request handler can reach; cheap to clone.
@@ -43,7 +44,7 @@ pub struct AppState {
 
 struct Shared {
     config: Config,
-    farm: Mutex<Farm>,
+    ledger: Mutex<Ledger>,
     assets: AssetStore,
     tiles: TileStore,
     /// Woken when tiles may have become available (a job submitted, a tile failed).
@@ -58,22 +59,22 @@ impl AppState {
         let data = config.data_dir.clone();
         let lease_ttl = config.lease_ttl;
         let grace = config.restart_grace;
-        let (farm, assets, tiles) = tokio::task::spawn_blocking(move || {
+        let (ledger, assets, tiles) = tokio::task::spawn_blocking(move || {
             std::fs::create_dir_all(&data)
                 .with_context(|| format!("creating the data directory {}", data.display()))?;
             let db = db::open(&data.join("spindle.db"))
                 .with_context(|| format!("opening {}", data.join("spindle.db").display()))?;
-            let farm = Farm::load(db, lease_ttl, grace, tokio::time::Instant::now())?;
+            let ledger = Ledger::load(db, lease_ttl, grace, tokio::time::Instant::now())?;
             let assets = AssetStore::open(data.join("assets"))?;
             let tiles = TileStore::open(data.join("jobs"))?;
-            anyhow::Ok((farm, assets, tiles))
+            anyhow::Ok((ledger, assets, tiles))
         })
         .await??;
-        let jobs = farm.jobs.len();
+        let jobs = ledger.jobs.len();
         let state = AppState {
             inner: Arc::new(Shared {
                 config,
-                farm: Mutex::new(farm),
+                ledger: Mutex::new(ledger),
                 assets,
                 tiles,
                 work: Notify::new(),
@@ -90,12 +91,12 @@ impl AppState {
         &self.inner.config
     }
 
-    /// The farm, locked. Never held across an `.await`.
-    pub(crate) fn farm(&self) -> MutexGuard<'_, Farm> {
+    /// The ledger of jobs, tiles and workers, locked. Never held across an `.await`.
+    pub(crate) fn ledger(&self) -> MutexGuard<'_, Ledger> {
         // Every change is written to the database before memory, and nothing on the request
-        // path panics; should a panic still poison the lock, the farm is as consistent as the
+        // path panics; should a panic still poison the lock, the ledger is as consistent as the
         // last completed change, so carry on.
-        self.inner.farm.lock().unwrap_or_else(|p| p.into_inner())
+        self.inner.ledger.lock().unwrap_or_else(|p| p.into_inner())
     }
 
     pub(crate) fn assets(&self) -> &AssetStore {
@@ -137,7 +138,7 @@ impl AppState {
 
     /// Starts writing the final image of every job whose tiles are all in.
     pub(crate) fn assemble_complete_jobs(&self) {
-        let ids = self.farm().take_jobs_to_assemble();
+        let ids = self.ledger().take_jobs_to_assemble();
         for id in ids {
             let state = self.clone();
             tokio::spawn(async move { state.assemble(id).await });
@@ -146,10 +147,11 @@ impl AppState {
 
     async fn assemble(&self, id: u64) {
         let prepared = {
-            let farm = self.farm();
-            farm.job(id)
+            let ledger = self.ledger();
+            ledger
+                .job(id)
                 .map(|job| (job.spec.clone(), job.stats))
-                .and_then(|(spec, stats)| Ok((spec, stats, farm.done_tiles(id)?)))
+                .and_then(|(spec, stats)| Ok((spec, stats, ledger.done_tiles(id)?)))
         };
         let Ok((spec, stats, tiles)) = prepared else {
             return; // Deleted meanwhile.
@@ -165,11 +167,11 @@ impl AppState {
             tracing::error!(job = id, error = format!("{e:#}"), "assembly failed");
             format!("{e:#}")
         });
-        let finished = self.farm().finish_assembly(id, result);
+        let finished = self.ledger().finish_assembly(id, result);
         if let Err(e) = finished {
             tracing::error!(job = id, error = %e, "recording the end of assembly failed");
         }
-        if self.farm().job(id).is_err() {
+        if self.ledger().job(id).is_err() {
             let _ = self.remove_job_files(id).await;
         }
     }

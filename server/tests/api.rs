@@ -9,7 +9,6 @@ use std::collections::BTreeSet;
 use axum::http::{Method, StatusCode};
 use serde_json::{Value, json};
 use spindle_common::protocol::{JobInfo, asset_hash};
-use spindle_server::api::routes;
 use support::*;
 
 /// The body of an error response; fails unless it is `{"error": "..."}`.
@@ -426,43 +425,85 @@ async fn assets_are_stored_by_verified_hash_and_obj_triangles_are_counted() {
     assert!(v["error"].as_str().unwrap().contains("triangles"), "{v}");
 }
 
+/// The routes `docs/api.md` lists, as (path, method, token).
+fn routes_in_api_md() -> BTreeSet<(String, String, String)> {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/api.md");
+    let text = std::fs::read_to_string(path).unwrap();
+    text.lines()
+        .filter_map(|line| {
+            let cells: Vec<&str> = line.split('|').map(str::trim).collect();
+            let method = *cells.get(1)?;
+            let path = cells.get(2)?.strip_prefix('`')?.strip_suffix('`')?;
+            ["GET", "PUT", "POST", "DELETE", "PATCH"]
+                .contains(&method)
+                .then(|| (path.to_string(), method.to_string(), cells[3].to_string()))
+        })
+        .collect()
+}
+
 #[tokio::test]
 async fn the_openapi_document_lists_exactly_the_routes_served() {
     let dir = tempfile::tempdir().unwrap();
     let c = Coordinator::open(config(dir.path())).await;
     let (status, doc) = c.client(Method::GET, "/v1/openapi.json", None).await;
     assert_eq!(status, StatusCode::OK);
-    let documented: BTreeSet<(String, String)> = doc["paths"]
+    let methods = ["GET", "PUT", "POST", "DELETE", "PATCH"];
+    // (path, method, token) as documented: the token is the operation's security scheme.
+    let documented: BTreeSet<(String, String, String)> = doc["paths"]
         .as_object()
         .unwrap()
         .iter()
         .flat_map(|(path, item)| {
             item.as_object()
                 .unwrap()
-                .keys()
-                .filter(|k| ["get", "put", "post", "delete", "patch"].contains(&k.as_str()))
-                .map(move |m| (path.clone(), m.to_uppercase()))
+                .iter()
+                .filter(|(k, _)| methods.contains(&k.to_uppercase().as_str()))
+                .map(move |(m, op)| {
+                    let token = match op["security"][0].as_object() {
+                        None => "none".to_string(),
+                        Some(s) => s.keys().next().unwrap().trim_end_matches("_token").into(),
+                    };
+                    (path.clone(), m.to_uppercase(), token)
+                })
         })
         .collect();
-    let served: BTreeSet<(String, String)> = routes(&c.config.limits)
-        .iter()
-        .map(|r| (r.path.to_string(), r.method.to_string()))
-        .collect();
-    assert_eq!(documented, served);
-    assert_eq!(served.len(), 19);
-    // Every served route is reached by its method (not the 404/405 fallbacks).
-    for (path, method) in &served {
+    assert_eq!(documented, routes_in_api_md());
+    assert_eq!(documented.len(), 19);
+    for (path, method, token) in &documented {
         let uri = path
             .replace("{hash}", &asset_hash(b""))
             .replace("{id}", "1")
             .replace("{job}", "1")
             .replace("{tile}", "0");
-        let (status, bytes) = c
-            .send(method.parse().unwrap(), &uri, Some(CLIENT), "{}")
-            .await;
+        let (right, wrong) = match token.as_str() {
+            "client" => (Some(CLIENT), Some(WORKER)),
+            "worker" => (Some(WORKER), Some(CLIENT)),
+            _ => (None, None),
+        };
+        // Every documented route is reached by its method (not the 404/405 fallbacks) ...
+        let (status, bytes) = c.send(method.parse().unwrap(), &uri, right, "{}").await;
         assert_ne!(status, StatusCode::METHOD_NOT_ALLOWED, "{method} {path}");
         if status == StatusCode::NOT_FOUND {
             assert!(!error_of(&bytes).contains("no route"), "{method} {path}");
+        }
+        // ... behind the token the document names.
+        if right.is_some() {
+            for token in [None, wrong] {
+                let (status, _) = c.send(method.parse().unwrap(), &uri, token, "{}").await;
+                assert_eq!(
+                    status,
+                    StatusCode::UNAUTHORIZED,
+                    "{method} {path} {token:?}"
+                );
+            }
+        }
+        // Routes enter the router only through `utoipa_axum::routes!`, which documents them;
+        // so a documented path answers its undocumented methods with 405.
+        for other in methods {
+            if !documented.iter().any(|(p, m, _)| p == path && m == other) {
+                let (status, _) = c.send(other.parse().unwrap(), &uri, right, "{}").await;
+                assert_eq!(status, StatusCode::METHOD_NOT_ALLOWED, "{other} {path}");
+            }
         }
     }
     assert!(doc["components"]["schemas"]["TileUpload"].is_object());

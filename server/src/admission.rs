@@ -1,0 +1,69 @@
+//! Whether a job submission is admitted: a valid scene within the [`Limits`], with every
+//! asset it names given by hash and every OBJ asset already uploaded.
+//!
+//! Admission reads only the request and stored assets (never a client's file paths) and
+//! answers a refusal as a 400 naming the offending field. The limit on jobs queued or running
+//! is checked when the job is stored ([`crate::jobs::Ledger::submit`]), under the same lock
+//! as the insertion.
+
+use std::collections::HashMap;
+
+use spindle_common::protocol::{SubmitJob, is_hash};
+use spindle_common::scene::Shape;
+
+use crate::assets::AssetStore;
+use crate::error::Error;
+use crate::limits::Limits;
+
+/// Admits `submit` or says why not.
+pub async fn admit(submit: &SubmitJob, limits: &Limits, assets: &AssetStore) -> Result<(), Error> {
+    submit.scene.validate().map_err(|e| {
+        Error::BadRequest(if e.path == "." {
+            format!("scene: {}", e.problem)
+        } else {
+            format!("scene.{e}")
+        })
+    })?;
+    limits
+        .check_film(&submit.scene, submit.tile_size)
+        .map_err(Error::BadRequest)?;
+    for (path, hash) in &submit.assets {
+        if !is_hash(hash) {
+            return Err(Error::BadRequest(format!(
+                "assets.{path}: {hash:?} is not a blake3 hash (64 lowercase hex digits)"
+            )));
+        }
+    }
+    let obj_triangles = obj_triangles(submit, assets).await?;
+    limits
+        .check_triangles(&submit.scene, |path| {
+            obj_triangles
+                .get(path)
+                .copied()
+                .ok_or_else(|| format!("no asset given for {path:?}"))
+        })
+        .map_err(Error::BadRequest)
+}
+
+/// The triangle count of each OBJ shape's asset, by the shape's path.
+async fn obj_triangles(
+    submit: &SubmitJob,
+    assets: &AssetStore,
+) -> Result<HashMap<String, u64>, Error> {
+    let mut counts = HashMap::new();
+    for (i, object) in submit.scene.objects.iter().enumerate() {
+        if let Shape::Obj { path } = &object.shape {
+            let Some(hash) = submit.assets.get(path) else {
+                return Err(Error::BadRequest(format!(
+                    "scene.objects[{i}].shape.path: no asset given for {path:?} (add it to `assets`)"
+                )));
+            };
+            let count = assets.obj_triangles(hash).await.map_err(|e| match e {
+                Error::BadRequest(m) => Error::BadRequest(format!("assets.{path}: {m}")),
+                other => other,
+            })?;
+            counts.insert(path.clone(), count);
+        }
+    }
+    Ok(counts)
+}

@@ -1,0 +1,143 @@
+//! The HTTP routes, split by resource, and the OpenAPI document built from the same
+//! declarations.
+//!
+//! Each handler carries its path, method and responses in one `#[utoipa::path]` attribute;
+//! each resource module lists its handlers with the [`Role`] that may call them, and
+//! [`router`] registers every listed handler with `utoipa_axum`, which routes the path and
+//! documents it in one step. So the router and the document cannot disagree, and a role is
+//! written once: it selects both the bearer-token middleware and the document's security
+//! requirement. The request and response shapes are documented in `spindle_common::protocol`.
+
+mod assets;
+mod jobs;
+mod service;
+mod work;
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use axum::extract::DefaultBodyLimit;
+use axum::http::{Method, StatusCode, Uri};
+use axum::response::{IntoResponse, Response};
+use axum::{Extension, Json, Router};
+use spindle_common::protocol::ApiError;
+use utoipa::OpenApi;
+use utoipa::openapi::path::Paths;
+use utoipa::openapi::security::SecurityRequirement;
+use utoipa_axum::router::{OpenApiRouter, UtoipaMethodRouter};
+
+use crate::AppState;
+use crate::auth::{self, Role};
+use crate::error::Error;
+
+/// Documented handlers (one `routes!` each) with the role that may call them.
+type Declared = Vec<(Role, UtoipaMethodRouter<AppState>)>;
+
+/// The document's parts that are not routes: title, description and the token schemes.
+#[derive(OpenApi)]
+#[openapi(
+    info(
+        title = "spindle coordinator",
+        description = "Jobs, assets, leases and tiles of a spindle render farm. Client routes \
+                       take `Authorization: Bearer $SPINDLE_TOKEN`, worker routes \
+                       `Authorization: Bearer $SPINDLE_WORKER_TOKEN`. Every error body is \
+                       `{\"error\": \"...\"}`."
+    ),
+    modifiers(&BearerTokens)
+)]
+struct ApiDoc;
+
+struct BearerTokens;
+
+impl utoipa::Modify for BearerTokens {
+    fn modify(&self, openapi: &mut utoipa::openapi::OpenApi) {
+        use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityScheme};
+        let components = openapi.components.get_or_insert_with(Default::default);
+        for role in [Role::Client, Role::Worker] {
+            let name = security_scheme(role).expect("a role with a token");
+            components.add_security_scheme(
+                name,
+                SecurityScheme::Http(HttpBuilder::new().scheme(HttpAuthScheme::Bearer).build()),
+            );
+        }
+    }
+}
+
+/// The document's name for the bearer token of `role` (none for public routes).
+fn security_scheme(role: Role) -> Option<&'static str> {
+    match role {
+        Role::Public => None,
+        Role::Client => Some("client_token"),
+        Role::Worker => Some("worker_token"),
+    }
+}
+
+/// Marks every operation in `paths` as needing the token of `role`.
+fn require_token(paths: &mut Paths, role: Role) {
+    let Some(scheme) = security_scheme(role) else {
+        return;
+    };
+    for item in paths.paths.values_mut() {
+        let operations = [
+            &mut item.get,
+            &mut item.put,
+            &mut item.post,
+            &mut item.delete,
+            &mut item.patch,
+        ];
+        for operation in operations.into_iter().flatten() {
+            operation.security = Some(vec![SecurityRequirement::new(scheme, Vec::<String>::new())]);
+        }
+    }
+}
+
+/// Every route the coordinator serves and the OpenAPI document of them.
+fn routes_and_document(state: &AppState) -> (Router<AppState>, utoipa::openapi::OpenApi) {
+    let limits = &state.config().limits;
+    let declared: Declared = [
+        service::routes(),
+        assets::routes(limits),
+        jobs::routes(),
+        work::routes(limits),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    let mut api = OpenApiRouter::with_openapi(ApiDoc::openapi());
+    for (role, (schemas, mut paths, handler)) in declared {
+        require_token(&mut paths, role);
+        let auth = axum::middleware::from_fn_with_state((state.clone(), role), auth::require);
+        api = api.routes((schemas, paths, handler.layer(auth)));
+    }
+    api.split_for_parts()
+}
+
+/// The answer to a path no route matches.
+async fn no_route(method: Method, uri: Uri) -> Error {
+    Error::NotFound(format!("no route for {method} {}", uri.path()))
+}
+
+/// The answer to a known path with the wrong method.
+async fn wrong_method(method: Method, uri: Uri) -> Response {
+    let body = Json(ApiError {
+        error: format!("{method} is not allowed on {}", uri.path()),
+    });
+    (StatusCode::METHOD_NOT_ALLOWED, body).into_response()
+}
+
+/// The coordinator's router: every declared route behind its role's token, JSON answers for
+/// unknown paths and methods, then the body limit, the body timeout and request tracing.
+pub fn router(state: AppState) -> Router {
+    let max_json_bytes = state.config().limits.max_json_bytes;
+    let (routes, document) = routes_and_document(&state);
+    routes
+        .layer(Extension(Arc::new(document)))
+        .fallback(no_route)
+        .method_not_allowed_fallback(wrong_method)
+        .layer(DefaultBodyLimit::max(max_json_bytes))
+        .layer(tower_http::timeout::RequestBodyTimeoutLayer::new(
+            Duration::from_secs(60),
+        ))
+        .layer(tower_http::trace::TraceLayer::new_for_http())
+        .with_state(state)
+}

@@ -1,0 +1,211 @@
+//! The routes workers use: register, lease a tile, read its job, renew the lease, upload the
+//! result or report a failure.
+
+use std::time::Duration;
+
+use axum::Json;
+use axum::extract::{DefaultBodyLimit, State};
+use axum::http::StatusCode;
+use axum::response::{IntoResponse, Response};
+use spindle_common::protocol::{
+    ApiError, Heartbeat, HeartbeatAck, JobSpec, Lease, LeaseRequest, MAX_LEASE_WAIT_MS,
+    RegisterWorker, TileAck, TileFailure, TileOutcome, TileUpload, WorkerRegistered, pixel_hash,
+};
+use tokio::time::Instant;
+use utoipa_axum::router::UtoipaMethodRouterExt;
+use utoipa_axum::routes;
+
+use super::Declared;
+use crate::AppState;
+use crate::auth::Role;
+use crate::error::Error;
+use crate::extract::{ApiPath, JsonBody, RawBody, parse_json};
+use crate::lease::UploadPlan;
+use crate::limits::Limits;
+
+pub(super) fn routes(limits: &Limits) -> Declared {
+    vec![
+        (Role::Worker, routes!(register_worker)),
+        (Role::Worker, routes!(lease)),
+        (Role::Worker, routes!(job_spec)),
+        (Role::Worker, routes!(heartbeat)),
+        (
+            Role::Worker,
+            routes!(upload_tile).layer(DefaultBodyLimit::max(limits.max_tile_upload_bytes)),
+        ),
+        (Role::Worker, routes!(fail_tile)),
+    ]
+}
+
+/// Registers a worker.
+#[utoipa::path(post, path = "/v1/workers", request_body = RegisterWorker,
+    responses((status = 200, body = WorkerRegistered), (status = 400, body = ApiError)))]
+async fn register_worker(
+    State(state): State<AppState>,
+    JsonBody(request): JsonBody<RegisterWorker>,
+) -> Result<Json<WorkerRegistered>, Error> {
+    if request.name.is_empty() || request.name.len() > 200 {
+        return Err(Error::BadRequest("name: must be 1 to 200 bytes".into()));
+    }
+    if request.threads == 0 {
+        return Err(Error::BadRequest("threads: must be at least 1".into()));
+    }
+    let worker_id = state
+        .ledger()
+        .register_worker(&request.name, request.threads)?;
+    Ok(Json(WorkerRegistered { worker_id }))
+}
+
+/// Long-polls for a tile: 200 with a lease, or 204 when none came up within the wait.
+#[utoipa::path(post, path = "/v1/workers/{id}/lease", params(("id" = u64, Path, description = "worker id")),
+    request_body(content = Option<LeaseRequest>, description = "optional; an empty body means the defaults"),
+    responses((status = 200, body = Lease), (status = 204, description = "no work right now"),
+              (status = 404, body = ApiError)))]
+async fn lease(
+    State(state): State<AppState>,
+    ApiPath(worker): ApiPath<u64>,
+    RawBody(body): RawBody,
+) -> Result<Response, Error> {
+    let request: LeaseRequest = if body.iter().all(u8::is_ascii_whitespace) {
+        LeaseRequest::default()
+    } else {
+        parse_json(&body)?
+    };
+    let wait = request
+        .wait_ms
+        .unwrap_or(MAX_LEASE_WAIT_MS)
+        .min(MAX_LEASE_WAIT_MS);
+    let deadline = Instant::now() + Duration::from_millis(wait);
+    loop {
+        let notified = state.work_notified();
+        tokio::pin!(notified);
+        notified.as_mut().enable();
+        let (lease, next_expiry) = {
+            let mut ledger = state.ledger();
+            (
+                ledger.try_lease(worker, Instant::now())?,
+                ledger.next_expiry(),
+            )
+        };
+        if let Some(lease) = lease {
+            return Ok(Json(lease).into_response());
+        }
+        if Instant::now() >= deadline || state.is_shutting_down() {
+            return Ok(StatusCode::NO_CONTENT.into_response());
+        }
+        let wake = next_expiry.map_or(deadline, |e| e.min(deadline));
+        tokio::select! {
+            _ = &mut notified => {}
+            _ = tokio::time::sleep_until(wake) => {}
+            _ = state.shutdown_signal() => return Ok(StatusCode::NO_CONTENT.into_response()),
+        }
+    }
+}
+
+/// What a worker needs to render a job's tiles.
+#[utoipa::path(get, path = "/v1/jobs/{id}/spec", params(("id" = u64, Path, description = "job id")),
+    responses((status = 200, body = JobSpec), (status = 404, body = ApiError)))]
+async fn job_spec(
+    State(state): State<AppState>,
+    ApiPath(id): ApiPath<u64>,
+) -> Result<Json<JobSpec>, Error> {
+    let spec = state.ledger().job(id)?.spec.clone();
+    Ok(Json((*spec).clone()))
+}
+
+/// Renews a lease.
+#[utoipa::path(post, path = "/v1/leases/{job}/{tile}/heartbeat",
+    params(("job" = u64, Path, description = "job id"), ("tile" = u32, Path, description = "tile index")),
+    request_body = Heartbeat,
+    responses((status = 200, body = HeartbeatAck), (status = 404, body = ApiError),
+              (status = 409, body = ApiError)))]
+async fn heartbeat(
+    State(state): State<AppState>,
+    ApiPath((job, tile)): ApiPath<(u64, u32)>,
+    JsonBody(hb): JsonBody<Heartbeat>,
+) -> Result<Json<HeartbeatAck>, Error> {
+    Ok(Json(state.ledger().heartbeat(
+        job,
+        tile,
+        &hb,
+        Instant::now(),
+    )?))
+}
+
+/// Uploads a rendered tile.
+#[utoipa::path(put, path = "/v1/jobs/{job}/tiles/{tile}",
+    params(("job" = u64, Path, description = "job id"), ("tile" = u32, Path, description = "tile index")),
+    request_body = TileUpload,
+    responses((status = 200, body = TileAck), (status = 400, body = ApiError),
+              (status = 404, body = ApiError), (status = 409, body = ApiError),
+              (status = 413, body = ApiError)))]
+async fn upload_tile(
+    State(state): State<AppState>,
+    ApiPath((job, tile)): ApiPath<(u64, u32)>,
+    RawBody(body): RawBody,
+) -> Result<Json<TileAck>, Error> {
+    // Parsing and hashing up to megabytes of floats is CPU work: off the runtime.
+    let upload = tokio::task::spawn_blocking(move || {
+        let upload: TileUpload = parse_json(&body)?;
+        let actual = pixel_hash(&upload.pixels);
+        if actual != upload.hash {
+            return Err(Error::BadRequest(format!(
+                "hash: the pixels hash to {actual}, not {}",
+                upload.hash
+            )));
+        }
+        Ok(upload)
+    })
+    .await
+    .map_err(anyhow::Error::from)??;
+
+    if state.ledger().check_upload(job, tile, &upload)? == UploadPlan::Duplicate {
+        return Ok(Json(TileAck {
+            outcome: TileOutcome::Duplicate,
+        }));
+    }
+    let store = state.tile_store().clone();
+    let upload = tokio::task::spawn_blocking(move || {
+        store
+            .write(job, tile, &upload.hash, &upload.pixels)
+            .map(|()| upload)
+    })
+    .await
+    .map_err(anyhow::Error::from)??;
+    let recorded = state.ledger().record_upload(job, tile, &upload);
+    let (outcome, complete) = match recorded {
+        Ok(r) => r,
+        Err(Error::NotFound(m)) => {
+            // Deleted while the file was written: do not leave the file behind.
+            state.remove_job_files(job).await?;
+            return Err(Error::NotFound(m));
+        }
+        Err(e) => return Err(e),
+    };
+    if complete {
+        state.assemble_complete_jobs();
+    }
+    Ok(Json(TileAck { outcome }))
+}
+
+/// Reports that a tile could not be rendered.
+#[utoipa::path(post, path = "/v1/leases/{job}/{tile}/fail",
+    params(("job" = u64, Path, description = "job id"), ("tile" = u32, Path, description = "tile index")),
+    request_body = TileFailure,
+    responses((status = 204), (status = 404, body = ApiError), (status = 409, body = ApiError)))]
+async fn fail_tile(
+    State(state): State<AppState>,
+    ApiPath((job, tile)): ApiPath<(u64, u32)>,
+    JsonBody(mut failure): JsonBody<TileFailure>,
+) -> Result<StatusCode, Error> {
+    if failure.reason.len() > 2000 {
+        let mut end = 2000;
+        while !failure.reason.is_char_boundary(end) {
+            end -= 1;
+        }
+        failure.reason.truncate(end);
+    }
+    state.ledger().fail_tile(job, tile, &failure)?;
+    state.work_available();
+    Ok(StatusCode::NO_CONTENT)
+}
