@@ -13,7 +13,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use rusqlite::{Connection, OptionalExtension, Transaction, params};
+use rusqlite::{Connection, Transaction, params};
 use spindle_common::protocol::JobState;
 use spindle_common::stats::RenderStats;
 
@@ -249,7 +249,9 @@ pub fn insert_worker(
 }
 
 /// The job an idempotency key created, with the hash of the request that created it.
+#[cfg(test)]
 pub fn job_for_key(conn: &Connection, key: &str) -> rusqlite::Result<Option<(u64, String)>> {
+    use rusqlite::OptionalExtension;
     conn.query_row(
         "SELECT id, request_hash FROM jobs WHERE idempotency_key = ?1",
         [key],
