@@ -13,16 +13,16 @@
 //! - The bytes of a file are a pure function of the image: no timestamps, and header
 //!   attributes are written sorted by name (as OpenEXR's own library does), so the same image
 //!   always gives the same bytes.
-//! - Files are written atomically: to a temporary file in the destination directory, flushed
-//!   to disk, then renamed over the destination, so a crash never leaves a half-written file
-//!   under the final name.
+//! - Files are written with [`atomic_write::write`], so a crash never leaves a half-written
+//!   file under the final name.
 //! - Non-finite samples (NaN, ±inf) are written as they are; [`Image::non_finite_count`] lets a
 //!   caller report them.
 
 use std::collections::BTreeMap;
-use std::io::{Cursor, Write};
-use std::path::{Path, PathBuf};
+use std::io::Cursor;
+use std::path::Path;
 
+use crate::atomic_write;
 use crate::tile::{LAYER_NAMES, TilePixels, TileRect};
 
 /// A bad tile, a bad image or a failed read or write.
@@ -262,7 +262,7 @@ impl Image {
             },
             other => other,
         })?;
-        write_atomically(path, &bytes)
+        write_file(path, &bytes)
     }
 
     /// Reads an EXR file written by [`Image::write_exr`] (or any one-part EXR with the same
@@ -300,7 +300,7 @@ impl Image {
             },
             other => other,
         })?;
-        write_atomically(path, &bytes)
+        write_file(path, &bytes)
     }
 }
 
@@ -499,36 +499,12 @@ fn text_to_string(text: &exr::prelude::Text) -> String {
     }
 }
 
-/// Writes `bytes` to `path` so that `path` holds either its old content or all of `bytes`:
-/// a temporary file in the same directory (a rename is only atomic within one file system),
-/// flushed to disk, then renamed over `path`.
-fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), ImageError> {
-    let io_error = |p: &Path| {
-        let p = p.display().to_string();
-        move |source| ImageError::Io { path: p, source }
-    };
-    let dir: PathBuf = match path.parent() {
-        Some(parent) if !parent.as_os_str().is_empty() => parent.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let mut builder = tempfile::Builder::new();
-    builder.prefix(".spindle-").suffix(".tmp");
-    // A temporary file is private (0600) by default; an output image is an ordinary file.
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        builder.permissions(std::fs::Permissions::from_mode(0o644));
-    }
-    let mut temp = builder.tempfile_in(&dir).map_err(io_error(&dir))?;
-    temp.write_all(bytes).map_err(io_error(temp.path()))?;
-    temp.as_file().sync_all().map_err(io_error(temp.path()))?;
-    temp.persist(path).map_err(|e| io_error(path)(e.error))?;
-    // Make the rename itself durable. Not every platform can open a directory for syncing,
-    // and the data is already safe in the file, so a failure here is not an error.
-    if let Ok(d) = std::fs::File::open(&dir) {
-        let _ = d.sync_all();
-    }
-    Ok(())
+/// Writes a finished file with [`atomic_write::write`], reporting a failure as [`ImageError::Io`].
+fn write_file(path: &Path, bytes: &[u8]) -> Result<(), ImageError> {
+    atomic_write::write(path, bytes).map_err(|e| ImageError::Io {
+        path: path.display().to_string(),
+        source: std::io::Error::new(e.source.kind(), format!("{}: {}", e.step, e.source)),
+    })
 }
 
 #[cfg(test)]
