@@ -15,8 +15,7 @@
 //!   always gives the same bytes.
 //! - Files are written with [`atomic_write::write`], so a crash never leaves a half-written
 //!   file under the final name.
-//! - Non-finite samples (NaN, ±inf) are written as they are; [`Image::non_finite_count`] lets a
-//!   caller report them.
+//! - Non-finite samples (NaN, ±inf) are written as they are.
 
 use std::collections::BTreeMap;
 use std::io::Cursor;
@@ -159,6 +158,7 @@ impl Image {
     }
 
     /// The number of pixels with a NaN or infinite sample in any layer.
+    #[cfg(test)]
     pub fn non_finite_count(&self) -> usize {
         let pixels = self.width as usize * self.height as usize;
         (0..pixels)
