@@ -1,13 +1,13 @@
 //! `spindle fetch JOB -o OUT.exr`: download a finished job's image.
 //!
-//! The file is written atomically (a temporary file beside it, then a rename), so a reader
-//! never sees half an image and an interrupted download leaves the old file alone.
+//! The file is written with `atomic_write::write`, so a reader never sees half an image and an
+//! interrupted download leaves the old file alone.
 
-use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use reqwest::StatusCode;
+use spindle_common::atomic_write;
 
 use crate::api::{Api, ImageFile, status_of};
 
@@ -44,29 +44,13 @@ pub async fn run(api: &Api, args: &FetchArgs) -> Result<()> {
         }
         Err(e) => return Err(e.context(format!("fetching the image of job {}", args.job))),
     };
-    write_atomically(&args.output, &bytes)?;
+    atomic_write::write(&args.output, &bytes)?;
     println!("wrote {} ({} bytes)", args.output.display(), bytes.len());
     if args.preview {
         let png = api.image(args.job, ImageFile::Png).await?;
         let path = args.output.with_extension("png");
-        write_atomically(&path, &png)?;
+        atomic_write::write(&path, &png)?;
         println!("wrote {}", path.display());
     }
-    Ok(())
-}
-
-/// Writes `bytes` to `path` through a temporary file in the same directory.
-pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let mut tmp = tempfile::NamedTempFile::new_in(dir)
-        .with_context(|| format!("cannot create a file in {}", dir.display()))?;
-    tmp.write_all(bytes)
-        .and_then(|()| tmp.as_file().sync_all())
-        .with_context(|| format!("cannot write {}", path.display()))?;
-    tmp.persist(path)
-        .with_context(|| format!("cannot write {}", path.display()))?;
     Ok(())
 }

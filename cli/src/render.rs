@@ -4,9 +4,9 @@
 //!
 //! By default through an embedded local farm ([`crate::local_farm`]: a coordinator and N
 //! workers in this process, the same path a job takes on many machines); `--workers 0` renders
-//! in this process without the farm ([`crate::local`]), the single-process reference, which
-//! also offers `--crop` and `--pixel`. Both write the same pixels and the same header
-//! attributes.
+//! in this process without the farm ([`spindle_render::render_frame`]), the single-process
+//! reference, which also offers `--crop` and `--pixel`. Both write the same pixels and the same
+//! header attributes.
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};

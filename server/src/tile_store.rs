@@ -8,10 +8,10 @@
 //!
 //! All functions here block; call them from `spawn_blocking`.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use spindle_common::atomic_write;
 use spindle_common::protocol::pixel_hash;
 use spindle_common::tile::TilePixels;
 
@@ -44,7 +44,7 @@ impl TileStore {
             .join(format!("{index}-{hash}.json"))
     }
 
-    /// Writes a tile result durably (temp file, fsync, rename, fsync of the directory).
+    /// Writes a tile result durably with [`atomic_write::write`].
     pub fn write(
         &self,
         job: u64,
@@ -54,7 +54,9 @@ impl TileStore {
     ) -> anyhow::Result<()> {
         let path = self.tile_path(job, index, hash);
         let bytes = serde_json::to_vec(pixels)?;
-        write_atomic(&path, &bytes)
+        let dir = path.parent().context("a tile path has a parent")?;
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        Ok(atomic_write::write(&path, &bytes)?)
     }
 
     /// Reads a recorded tile result back and checks it is the one recorded.
@@ -80,28 +82,9 @@ impl TileStore {
     }
 }
 
-/// Writes `bytes` to `path` so that a reader (or a restarted process) sees the old file or the
-/// whole new one, never a part: temporary file in the same directory, fsync, rename, fsync of
-/// the directory.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
-    let dir = path.parent().context("a file path has a parent")?;
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let mut tmp = tempfile::Builder::new()
-        .prefix(".tmp-")
-        .tempfile_in(dir)
-        .with_context(|| format!("creating a temporary file in {}", dir.display()))?;
-    tmp.write_all(bytes)?;
-    tmp.as_file().sync_all()?;
-    tmp.persist(path)
-        .with_context(|| format!("renaming into {}", path.display()))?;
-    sync_dir(dir)
-}
-
 /// Makes a rename in `dir` durable.
 pub fn sync_dir(dir: &Path) -> anyhow::Result<()> {
-    std::fs::File::open(dir)
-        .and_then(|d| d.sync_all())
-        .with_context(|| format!("syncing {}", dir.display()))
+    atomic_write::sync_dir(dir).with_context(|| format!("syncing {}", dir.display()))
 }
 
 #[cfg(test)]

@@ -10,7 +10,6 @@
 use std::time::Duration;
 
 use reqwest::StatusCode;
-use serde::Serialize;
 use serde::de::DeserializeOwned;
 use spindle_common::protocol::{
     ApiError, Heartbeat, HeartbeatAck, JobSpec, Lease, LeaseRequest, RegisterWorker, TileAck,
@@ -185,17 +184,6 @@ impl Client {
         job_id: u64,
         tile: u32,
         body: &TileUpload,
-    ) -> Result<TileAck, ClientError> {
-        self.upload_raw(job_id, tile, body).await
-    }
-
-    /// `PUT /v1/jobs/{job}/tiles/{tile}` with any JSON body (the end-to-end tests send
-    /// malformed uploads through this).
-    pub async fn upload_raw<B: Serialize + ?Sized>(
-        &self,
-        job_id: u64,
-        tile: u32,
-        body: &B,
     ) -> Result<TileAck, ClientError> {
         let req = self
             .http

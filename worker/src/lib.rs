@@ -11,6 +11,7 @@ pub mod backoff;
 pub mod cache;
 pub mod client;
 pub mod config;
+pub mod lease_ref;
 pub mod upload;
 pub mod work_loop;
 

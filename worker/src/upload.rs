@@ -12,6 +12,7 @@ use tokio_util::sync::CancellationToken;
 
 use crate::backoff::{Backoff, RetryEnd, retry};
 use crate::client::{Client, ErrorKind};
+use crate::lease_ref::LeaseRef;
 
 /// How an upload ended.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -26,27 +27,25 @@ pub enum Delivery {
     Abandoned,
 }
 
-/// Uploads `pixels` for lease (`job_id`, `tile`, `epoch`) until acknowledged.
-#[allow(clippy::too_many_arguments)]
+/// Uploads `pixels` for `lease` until acknowledged.
 pub async fn deliver(
     client: &Client,
     policy: Backoff,
     stop: &CancellationToken,
     worker_id: u64,
-    job_id: u64,
-    tile: u32,
-    epoch: u64,
+    lease: LeaseRef,
     pixels: TilePixels,
 ) -> Delivery {
+    let LeaseRef { job, tile, epoch } = lease;
     let body = TileUpload {
         worker_id,
         epoch,
         hash: pixel_hash(&pixels),
         pixels,
     };
-    let salt = worker_id ^ (job_id << 32) ^ u64::from(tile);
+    let salt = worker_id ^ (job << 32) ^ u64::from(tile);
     match retry(policy, salt, stop, "uploading a tile", || {
-        client.upload(job_id, tile, &body)
+        client.upload(job, tile, &body)
     })
     .await
     {
@@ -55,7 +54,7 @@ pub async fn deliver(
         Err(RetryEnd::Failed(e)) => {
             if e.kind() == ErrorKind::Rejected {
                 // A 400/413 for a tile this worker rendered is a bug somewhere: say so loudly.
-                tracing::error!(job = job_id, tile, error = %e, "the coordinator refused a rendered tile");
+                tracing::error!(job, tile, error = %e, "the coordinator refused a rendered tile");
             }
             Delivery::Refused(e.to_string())
         }

@@ -29,6 +29,7 @@ use crate::Config;
 use crate::backoff::{Attempts, RetryEnd, retry};
 use crate::cache::{LoadError, SceneCache};
 use crate::client::{Client, ClientError, ErrorKind};
+use crate::lease_ref::LeaseRef;
 use crate::upload::{Delivery, deliver};
 use spindle_render::render_tile;
 
@@ -203,26 +204,19 @@ impl Worker {
 
     /// Renders and delivers one leased tile, with heartbeats running throughout.
     async fn work(&mut self, worker_id: u64, lease: Lease) -> anyhow::Result<()> {
-        let Lease {
-            job_id,
-            tile_index,
-            rect,
-            epoch,
-            ttl_ms,
-        } = lease;
-        tracing::debug!(job = job_id, tile = tile_index, epoch, "leased");
+        let held = LeaseRef::from(&lease);
+        let LeaseRef { job, tile, epoch } = held;
+        tracing::debug!(job, tile, epoch, "leased");
         // `stop` fires when the lease is lost or at the hard deadline.
         let stop = self.hard_stop.child_token();
         let heartbeats = tokio::spawn(heartbeat_loop(
             self.client.clone(),
             worker_id,
-            job_id,
-            tile_index,
-            epoch,
-            Duration::from_millis(ttl_ms),
+            held,
+            Duration::from_millis(lease.ttl_ms),
             stop.clone(),
         ));
-        let rendered = self.render(job_id, rect, &stop).await;
+        let rendered = self.render(job, lease.rect, &stop).await;
         let outcome = match rendered {
             Ok(Rendered::Pixels(pixels)) => {
                 let delivery = deliver(
@@ -230,9 +224,7 @@ impl Worker {
                     self.config.backoff,
                     &stop,
                     worker_id,
-                    job_id,
-                    tile_index,
-                    epoch,
+                    held,
                     pixels,
                 )
                 .await;
@@ -241,12 +233,12 @@ impl Worker {
                     Delivery::Acknowledged(TileOutcome::Duplicate) => self.summary.duplicates += 1,
                     Delivery::Refused(_) | Delivery::Abandoned => self.summary.abandoned += 1,
                 }
-                tracing::info!(job = job_id, tile = tile_index, epoch, outcome = ?delivery, "tile delivered");
+                tracing::info!(job, tile, epoch, outcome = ?delivery, "tile delivered");
                 Ok(())
             }
             Ok(Rendered::Failed(reason)) => {
                 self.summary.failed += 1;
-                tracing::warn!(job = job_id, tile = tile_index, %reason, "tile failed");
+                tracing::warn!(job, tile, %reason, "tile failed");
                 let body = TileFailure {
                     worker_id,
                     epoch,
@@ -257,7 +249,7 @@ impl Worker {
                     worker_id,
                     &stop,
                     "reporting a failed tile",
-                    || self.client.fail(job_id, tile_index, &body),
+                    || self.client.fail(job, tile, &body),
                 )
                 .await
                 {
@@ -269,7 +261,7 @@ impl Worker {
             }
             Ok(Rendered::Abandoned) => {
                 self.summary.abandoned += 1;
-                tracing::info!(job = job_id, tile = tile_index, epoch, "tile abandoned");
+                tracing::info!(job, tile, epoch, "tile abandoned");
                 Ok(())
             }
             Err(e) => Err(e),
@@ -326,12 +318,11 @@ impl Worker {
 async fn heartbeat_loop(
     client: Client,
     worker_id: u64,
-    job_id: u64,
-    tile: u32,
-    epoch: u64,
+    lease: LeaseRef,
     ttl: Duration,
     stop: CancellationToken,
 ) {
+    let LeaseRef { job, tile, epoch } = lease;
     let body = Heartbeat { worker_id, epoch };
     let mut interval = (ttl / 3).clamp(HEARTBEAT_MIN, HEARTBEAT_MAX);
     loop {
@@ -341,7 +332,7 @@ async fn heartbeat_loop(
         }
         let result = tokio::select! {
             _ = stop.cancelled() => return,
-            r = client.heartbeat(job_id, tile, &body) => r,
+            r = client.heartbeat(job, tile, &body) => r,
         };
         match result {
             Ok(ack) => {
@@ -349,13 +340,13 @@ async fn heartbeat_loop(
                     (Duration::from_millis(ack.ttl_ms) / 3).clamp(HEARTBEAT_MIN, HEARTBEAT_MAX)
             }
             Err(e) if matches!(e.kind(), ErrorKind::Conflict | ErrorKind::NotFound) => {
-                tracing::info!(job = job_id, tile, epoch, error = %e, "lease lost");
+                tracing::info!(job, tile, epoch, error = %e, "lease lost");
                 stop.cancel();
                 return;
             }
             // Keep the render going: if the coordinator comes back within its grace period the
             // lease is still good, and if not the upload will be refused.
-            Err(e) => tracing::warn!(job = job_id, tile, error = %e, "heartbeat failed"),
+            Err(e) => tracing::warn!(job, tile, error = %e, "heartbeat failed"),
         }
     }
 }

@@ -1,0 +1,392 @@
+use super::*;
+use crate::stats::RenderStats;
+use crate::tile::split_centre_first;
+
+/// A value unique to (layer, pixel, channel), exactly representable in f32.
+fn value(layer: usize, x: u32, y: u32, c: usize) -> f32 {
+    (layer * 100_000 + y as usize * 1000 + x as usize * 4 + c) as f32 * 0.25
+}
+
+fn patterned(width: u32, height: u32) -> Image {
+    let mut image = Image::new(width, height);
+    for (l, layer) in image.layers_mut().into_iter().enumerate() {
+        for y in 0..height {
+            for x in 0..width {
+                for c in 0..3 {
+                    layer[((y * width + x) * 3) as usize + c] = value(l, x, y, c);
+                }
+            }
+        }
+    }
+    image
+}
+
+fn tile_of(rect: TileRect) -> TilePixels {
+    let mut tile = TilePixels::black(rect);
+    for (l, layer) in [&mut tile.total, &mut tile.surface, &mut tile.single_scatter]
+        .into_iter()
+        .enumerate()
+    {
+        for row in 0..rect.height {
+            for col in 0..rect.width {
+                for c in 0..3 {
+                    layer[((row * rect.width + col) * 3) as usize + c] =
+                        value(l, rect.x + col, rect.y + row, c);
+                }
+            }
+        }
+    }
+    tile
+}
+
+fn bits(samples: &[f32]) -> Vec<u32> {
+    samples.iter().map(|v| v.to_bits()).collect()
+}
+
+#[test]
+fn a_tile_lands_where_its_rectangle_says() {
+    let mut image = Image::new(7, 5);
+    let rect = TileRect {
+        x: 2,
+        y: 1,
+        width: 3,
+        height: 2,
+    };
+    image.insert_tile(&tile_of(rect)).expect("tile fits");
+    for (l, layer) in image.layers().into_iter().enumerate() {
+        for y in 0..5 {
+            for x in 0..7 {
+                let inside = (2..5).contains(&x) && (1..3).contains(&y);
+                for c in 0..3 {
+                    let expected = if inside { value(l, x, y, c) } else { 0.0 };
+                    assert_eq!(
+                        layer[((y * 7 + x) * 3) as usize + c],
+                        expected,
+                        "layer {l} ({x},{y}) c{c}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn tiles_in_any_order_assemble_the_whole_image() {
+    let (w, h) = (37, 23);
+    let mut image = Image::new(w, h);
+    let mut tiles = split_centre_first(w, h, 8);
+    tiles.reverse();
+    for rect in tiles {
+        image.insert_tile(&tile_of(rect)).expect("tile fits");
+    }
+    assert_eq!(image, patterned(w, h));
+}
+
+#[test]
+fn bad_tiles_are_rejected_and_leave_the_image_unchanged() {
+    let mut image = patterned(16, 8);
+    let before = image.clone();
+    let rect = |x, y, width, height| TileRect {
+        x,
+        y,
+        width,
+        height,
+    };
+    for r in [
+        rect(10, 0, 7, 4),
+        rect(0, 5, 4, 4),
+        rect(16, 0, 1, 1),
+        rect(u32::MAX, 0, 2, 2),
+        rect(0, u32::MAX - 1, 1, 4),
+    ] {
+        let err = image.insert_tile(&TilePixels::black(r)).unwrap_err();
+        assert!(
+            matches!(err, ImageError::TileOutside { .. }),
+            "{r:?}: {err}"
+        );
+        assert!(err.to_string().contains("outside"), "{err}");
+    }
+    let err = image
+        .insert_tile(&TilePixels::black(rect(3, 3, 0, 2)))
+        .unwrap_err();
+    assert!(matches!(err, ImageError::EmptyTile { .. }), "{err}");
+
+    // Wrong buffer lengths, one layer at a time.
+    for (layer, layer_name) in LAYER_NAMES.into_iter().enumerate() {
+        for delta in [-3i64, -1, 1, 3] {
+            let mut tile = TilePixels::black(rect(4, 2, 4, 3));
+            let buffer = match layer {
+                0 => &mut tile.total,
+                1 => &mut tile.surface,
+                _ => &mut tile.single_scatter,
+            };
+            buffer.resize((36 + delta) as usize, 0.0);
+            let err = image.insert_tile(&tile).unwrap_err();
+            let ImageError::BufferLength {
+                layer: name,
+                expected,
+                actual,
+            } = err
+            else {
+                panic!("layer {layer} delta {delta}: {err}")
+            };
+            assert_eq!(
+                (name, expected, actual),
+                (layer_name, 36, (36 + delta) as usize)
+            );
+        }
+    }
+    assert_eq!(image, before);
+}
+
+#[test]
+fn exr_round_trip_is_bit_exact_with_attributes() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("out.exr");
+    let mut image = patterned(19, 11);
+    // Values a lossy or converting writer would change.
+    image.total[0] = f32::NAN;
+    image.total[1] = f32::INFINITY;
+    image.surface[5] = f32::NEG_INFINITY;
+    image.surface[6] = -0.0;
+    image.single_scatter[7] = f32::from_bits(1); // the smallest subnormal
+    image.single_scatter[8] = f32::MAX;
+    image.single_scatter[9] = 1.0e-3;
+    image.attributes.insert("spindle.spp".into(), "64".into());
+    image
+        .attributes
+        .insert("spindle.scene".into(), "glass-sphere.json".into());
+    image
+        .attributes
+        .insert("spindle.method".into(), "interval (Holzschuch 2015)".into());
+    image
+        .attributes
+        .insert("spindle.empty".into(), String::new());
+    image
+        .attributes
+        .insert("spindle.latin1".into(), "café".into());
+    image
+        .attributes
+        .insert("spindle.json".into(), r#"{"a": [1, 2]}"#.into());
+    // Any Unicode, and a NUL inside a value, survive (values are UTF-8 byte strings).
+    image
+        .attributes
+        .insert("spindle.η".into(), "η = 1.5, 日本/scène.json".into());
+    image.attributes.insert("spindle.nul".into(), "a\0b".into());
+
+    image.write_exr(&path).expect("written");
+    let back = read_exr(&path).expect("read");
+    assert_eq!((back.width, back.height), (19, 11));
+    for (name, (a, b)) in LAYER_NAMES
+        .iter()
+        .zip(image.layers().into_iter().zip(back.layers()))
+    {
+        assert_eq!(bits(a), bits(b), "layer {name}");
+    }
+    assert_eq!(back.attributes, image.attributes);
+    assert_eq!(back.non_finite_count(), 2);
+    assert_eq!(back.total[2], value(0, 0, 0, 2));
+}
+
+#[test]
+fn the_same_image_always_gives_the_same_bytes() {
+    let mut image = patterned(33, 17);
+    for i in 0..12 {
+        image
+            .attributes
+            .insert(format!("spindle.attr{i}"), format!("value {i}"));
+    }
+    let first = image.to_exr_bytes().unwrap();
+    for _ in 0..5 {
+        assert!(
+            image.to_exr_bytes().unwrap() == first,
+            "EXR bytes differ between writes"
+        );
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("a.exr");
+    image.write_exr(&path).unwrap();
+    assert!(std::fs::read(&path).unwrap() == first);
+    let png = image.to_png_preview_bytes().unwrap();
+    assert!(image.to_png_preview_bytes().unwrap() == png);
+    // And the file really is a one-part scanline ZIP file with the nine channels.
+    let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(&first), true).unwrap();
+    assert_eq!(meta.headers.len(), 1);
+    let header = &meta.headers[0];
+    assert_eq!(header.compression, exr::prelude::Compression::ZIP16);
+    assert_eq!(header.blocks, exr::meta::BlockDescription::ScanLines);
+    let names: Vec<String> = header
+        .channels
+        .list
+        .iter()
+        .map(|c| c.name.to_string())
+        .collect();
+    assert_eq!(
+        names,
+        [
+            "B",
+            "G",
+            "R",
+            "single_scatter.B",
+            "single_scatter.G",
+            "single_scatter.R",
+            "surface.B",
+            "surface.G",
+            "surface.R"
+        ]
+    );
+    assert!(
+        header
+            .channels
+            .list
+            .iter()
+            .all(|c| c.sample_type == exr::prelude::SampleType::F32)
+    );
+}
+
+#[test]
+fn bad_attributes_are_rejected_by_name() {
+    for (name, value, word) in [
+        ("", "x", "empty"),
+        ("channels", "x", "standard"),
+        ("comments", "x", "standard"),
+        (&"x".repeat(256), "x", "255"),
+    ] {
+        let mut image = Image::new(2, 2);
+        image.attributes.insert(name.into(), value.into());
+        let err = image.to_exr_bytes().unwrap_err();
+        assert!(
+            matches!(&err, ImageError::Attribute { name: n, .. } if n == name),
+            "{err}"
+        );
+        assert!(err.to_string().contains(word), "{err}");
+    }
+}
+
+#[test]
+fn png_preview_is_written_and_decodes_to_the_tone_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("preview.png");
+    let mut image = Image::new(4, 2);
+    // Linear inputs and their 8-bit sRGB values computed by hand from the sRGB curve:
+    // 0.5 -> 1.055 * 0.5^(1/2.4) - 0.055 = 0.73536 -> 187.52 -> 188;
+    // 0.0031308 -> 12.92 * 0.0031308 = 0.040450 -> 10.31 -> 10;
+    // 0.2 -> 1.055 * 0.2^(1/2.4) - 0.055 = 0.48453 -> 123.56 -> 124.
+    let cases: [(f32, u8); 8] = [
+        (0.0, 0),
+        (1.0, 255),
+        (0.5, 188),
+        (0.003_130_8, 10),
+        (0.2, 124),
+        (7.5, 255),
+        (-2.0, 0),
+        (f32::NAN, 0),
+    ];
+    for (i, (linear, _)) in cases.iter().enumerate() {
+        image.total[i * 3..i * 3 + 3].copy_from_slice(&[*linear, *linear, *linear]);
+    }
+    image.total[1] = f32::INFINITY; // pixel 0, green
+    image.surface.fill(9.0); // only `total` is previewed
+    image.write_png_preview(&path).expect("written");
+
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&path).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buffer = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buffer).unwrap();
+    assert_eq!((info.width, info.height), (4, 2));
+    assert_eq!(
+        (info.color_type, info.bit_depth),
+        (png::ColorType::Rgb, png::BitDepth::Eight)
+    );
+    let pixels = &buffer[..info.buffer_size()];
+    for (i, (linear, srgb)) in cases.iter().enumerate() {
+        let expected_green = if i == 0 { 255 } else { *srgb };
+        assert_eq!(
+            pixels[i * 3..i * 3 + 3],
+            [*srgb, expected_green, *srgb],
+            "pixel {i}: {linear}"
+        );
+    }
+    // Nothing but the preview is left in the directory.
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names, ["preview.png"]);
+}
+
+#[test]
+fn writing_replaces_the_old_file_and_reports_failures() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("out.exr");
+    std::fs::write(&path, b"an older render").unwrap();
+    let image = patterned(3, 2);
+    image.write_exr(&path).unwrap();
+    assert_eq!(read_exr(&path).unwrap(), image);
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names, ["out.exr"]);
+
+    let missing = dir.path().join("no-such-dir").join("out.exr");
+    assert!(matches!(
+        image.write_exr(&missing),
+        Err(ImageError::Io { .. })
+    ));
+    assert!(matches!(
+        image.write_png_preview(&missing),
+        Err(ImageError::Io { .. })
+    ));
+    assert!(matches!(read_exr(&missing), Err(ImageError::Io { .. })));
+    std::fs::write(&path, b"not an exr file").unwrap();
+    assert!(matches!(read_exr(&path), Err(ImageError::Exr { .. })));
+
+    let empty = Image::new(0, 4);
+    assert!(matches!(
+        empty.write_exr(&path),
+        Err(ImageError::EmptyImage { .. })
+    ));
+    assert!(matches!(
+        empty.write_png_preview(&path),
+        Err(ImageError::EmptyImage { .. })
+    ));
+    let mut broken = patterned(3, 2);
+    broken.surface.pop();
+    let err = broken.write_exr(&path).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            ImageError::BufferLength {
+                layer: "surface",
+                expected: 18,
+                actual: 17
+            }
+        ),
+        "{err}"
+    );
+}
+
+#[test]
+fn non_finite_pixels_are_counted_once_each() {
+    let mut image = Image::new(5, 4);
+    assert_eq!(image.non_finite_count(), 0);
+    image.total[3] = f32::NAN; // pixel 1
+    image.surface[4] = f32::INFINITY; // pixel 1 again
+    image.single_scatter[59] = f32::NEG_INFINITY; // pixel 19, the last
+    image.surface[30] = f32::MAX; // finite
+    assert_eq!(image.non_finite_count(), 2);
+    let mut tile = TilePixels::black(TileRect {
+        x: 0,
+        y: 0,
+        width: 1,
+        height: 1,
+    });
+    tile.total[0] = f32::NAN;
+    tile.stats = RenderStats::default();
+    image
+        .insert_tile(&tile)
+        .expect("NaN pixels are inserted as they are");
+    assert!(image.total[0].is_nan());
+    assert_eq!(image.non_finite_count(), 3);
+}

@@ -1,0 +1,570 @@
+use super::*;
+use crate::scene::{Pruning, ScatterMethod};
+use serde_json::{Value, json};
+
+/// A valid scene using every kind of light, shape, material and phase function.
+fn full_scene() -> Value {
+    json!({
+        "camera": { "position": [0, 1, 5], "look_at": [0, 1, 0], "up": [0, 1, 0], "fov_y": 40 },
+        "film": { "width": 64, "height": 48, "spp": 2, "seed": 7 },
+        "lights": [
+            { "type": "point", "position": [0, 4, -3], "intensity": [10, 10, 10] },
+            { "type": "sphere", "center": [2, 3, -2], "radius": 0.5, "radiance": [5, 5, 5] }
+        ],
+        "objects": [
+            {
+                "shape": { "type": "obj", "path": "meshes/floor.obj" },
+                "material": { "type": "diffuse", "reflectance": [0.5, 0.5, 0.5] }
+            },
+            {
+                "shape": { "type": "icosphere", "radius": 1, "subdivisions": 3 },
+                "transform": { "scale": [1, 1, 1], "rotate_deg": [0, 30, 0], "translate": [0, 1, 0] },
+                "material": {
+                    "type": "dielectric", "eta": 1.5,
+                    "medium": { "sigma_t": [0.5, 0.5, 0.5], "albedo": [0.9, 0.9, 0.9],
+                                "phase": { "type": "hg", "g": 0.3 } }
+                }
+            },
+            {
+                "shape": { "type": "bumpy_sphere", "radius": 1, "subdivisions": 4,
+                           "amplitude": 0.1, "frequency": 3, "seed": 2 },
+                "material": {
+                    "type": "dielectric", "eta": 1.33,
+                    "medium": { "sigma_t": [1, 1, 1], "albedo": [1, 1, 1] }
+                }
+            }
+        ],
+        "background": [0.1, 0.1, 0.1],
+        "integrator": {
+            "max_depth": 8, "internal_reflections": 2,
+            "single_scatter": { "method": "interval", "k": 2, "newton_tolerance": 1e-8,
+                                "samples_per_segment": 16, "auto_tolerance": 0.01 }
+        }
+    })
+}
+
+/// `full_scene` with the value at JSON pointer `pointer` replaced, parsed and validated.
+fn with(pointer: &str, value: Value) -> Result<SceneDescription, SceneError> {
+    let mut scene = full_scene();
+    *scene
+        .pointer_mut(pointer)
+        .unwrap_or_else(|| panic!("test pointer {pointer} names no value")) = value;
+    SceneDescription::from_json(&scene.to_string())
+}
+
+/// Asserts that setting `pointer` to `value` is rejected at exactly `path`, with a message
+/// containing `word`.
+#[track_caller]
+fn rejects(pointer: &str, value: Value, path: &str, word: &str) {
+    match with(pointer, value.clone()) {
+        Ok(_) => panic!("{pointer} = {value} was accepted"),
+        Err(e) => {
+            assert_eq!(e.path, path, "{pointer} = {value}: {e}");
+            assert!(
+                e.problem.contains(word),
+                "{pointer} = {value}: {e} lacks `{word}`"
+            );
+            assert_eq!(e.to_string(), format!("{}: {}", e.path, e.problem));
+        }
+    }
+}
+
+/// The same check on a scene built in code (values JSON cannot carry, like NaN).
+#[track_caller]
+fn rejects_value(edit: impl FnOnce(&mut SceneDescription), path: &str, word: &str) {
+    let mut scene =
+        SceneDescription::from_json(&full_scene().to_string()).expect("valid base scene");
+    edit(&mut scene);
+    let e = scene.validate().expect_err("edited scene was accepted");
+    assert_eq!(e.path, path, "{e}");
+    assert!(e.problem.contains(word), "{e} lacks `{word}`");
+}
+
+#[test]
+fn full_scene_is_valid() {
+    let scene = SceneDescription::from_json(&full_scene().to_string()).expect("valid");
+    assert_eq!(scene.lights.len(), 2);
+    assert_eq!(scene.objects.len(), 3);
+    assert_eq!(
+        scene.objects[1].material,
+        Material::Dielectric {
+            eta: 1.5,
+            medium: Medium {
+                sigma_t: [0.5; 3],
+                albedo: [0.9; 3],
+                phase: Phase::Hg { g: 0.3 }
+            }
+        }
+    );
+}
+
+#[test]
+fn minimal_scene_gets_the_documented_defaults() {
+    let text = r#"{
+        "camera": { "position": [0, 0, 3], "look_at": [0, 0, 0], "fov_y": 45 },
+        "film": { "width": 4, "height": 3 },
+        "objects": [ {
+            "shape": { "type": "bumpy_sphere", "radius": 1, "subdivisions": 1,
+                       "amplitude": 0, "frequency": 0 },
+            "material": { "type": "dielectric", "eta": 1,
+                          "medium": { "sigma_t": [0, 0, 0], "albedo": [0, 0, 0] } }
+        } ]
+    }"#;
+    let scene = SceneDescription::from_json(text).expect("valid");
+    assert_eq!(scene.camera.up, [0.0, 1.0, 0.0]);
+    assert_eq!((scene.film.spp, scene.film.seed), (4, 0));
+    assert!(scene.lights.is_empty());
+    assert_eq!(scene.background, [0.0; 3]);
+    let object = &scene.objects[0];
+    assert_eq!(object.transform.scale, [1.0; 3]);
+    assert_eq!(object.transform.rotate_deg, [0.0; 3]);
+    assert_eq!(object.transform.translate, [0.0; 3]);
+    let Shape::BumpySphere { seed, .. } = object.shape else {
+        panic!("shape kind changed")
+    };
+    assert_eq!(seed, 0);
+    let Material::Dielectric { medium, .. } = &object.material else {
+        panic!("material kind changed")
+    };
+    assert_eq!(medium.phase, Phase::Isotropic);
+    let integrator = &scene.integrator;
+    assert_eq!(
+        (integrator.max_depth, integrator.internal_reflections),
+        (8, 2)
+    );
+    let s = &integrator.single_scatter;
+    assert_eq!(s.method, ScatterMethod::Auto);
+    assert_eq!((s.k, s.jitter, s.samples_per_segment), (1, false, 64));
+    assert_eq!((s.newton_tolerance, s.auto_tolerance), (1e-10, 0.0));
+    assert_eq!(
+        s.pruning,
+        Pruning {
+            spindle: true,
+            cone: true,
+            plane: true,
+        }
+    );
+}
+
+#[test]
+fn unknown_fields_are_rejected_with_their_path() {
+    let mut scene = full_scene();
+    scene["camera"]["fov_x"] = json!(40);
+    let e = SceneDescription::from_json(&scene.to_string()).unwrap_err();
+    assert_eq!(e.path, "camera.fov_x", "{e}");
+    assert!(e.problem.contains("unknown field `fov_x`"), "{e}");
+
+    let mut scene = full_scene();
+    scene["integrator"]["single_scatter"]["pruning"] = json!({ "spindle": true, "cones": false });
+    let e = SceneDescription::from_json(&scene.to_string()).unwrap_err();
+    assert_eq!(e.path, "integrator.single_scatter.pruning.cones", "{e}");
+    assert!(e.problem.contains("unknown field"), "{e}");
+
+    let mut scene = full_scene();
+    scene["colour"] = json!([1, 1, 1]);
+    let e = SceneDescription::from_json(&scene.to_string()).unwrap_err();
+    assert_eq!(e.path, "colour", "{e}");
+
+    // Inside a tagged enum (shape, material, light) the path reaches the enum value.
+    let mut scene = full_scene();
+    scene["objects"][1]["shape"]["e"] = json!(3);
+    let e = SceneDescription::from_json(&scene.to_string()).unwrap_err();
+    assert_eq!(e.path, "objects[1].shape.e", "{e}");
+    let mut scene = full_scene();
+    scene["objects"][1]["shape"]["segments"] = json!(3);
+    let e = SceneDescription::from_json(&scene.to_string()).unwrap_err();
+    assert_eq!(e.path, "objects[1].shape.segments", "{e}");
+    assert!(e.problem.contains("unknown field `segments`"), "{e}");
+    let mut scene = full_scene();
+    scene["lights"][1]["intensity"] = json!([1, 1, 1]);
+    let e = SceneDescription::from_json(&scene.to_string()).unwrap_err();
+    assert_eq!(e.path, "lights[1].intensity", "{e}");
+    let mut scene = full_scene();
+    scene["objects"][1]["material"]["medium"]["phase"]["k"] = json!(0.1);
+    let e = SceneDescription::from_json(&scene.to_string()).unwrap_err();
+    assert!(e.path.starts_with("objects[1].material"), "{e}");
+    assert!(e.path.ends_with(".k"), "{e}");
+
+    let mut scene = full_scene();
+    scene["objects"][0]["shape"]["type"] = json!("cube");
+    let e = SceneDescription::from_json(&scene.to_string()).unwrap_err();
+    assert_eq!(e.path, "objects[0].shape.type", "{e}");
+    assert!(e.problem.contains("unknown variant `cube`"), "{e}");
+}
+
+#[test]
+fn malformed_json_is_rejected_with_its_path() {
+    rejects("/film/width", json!(-1), "film.width", "invalid value");
+    rejects("/film/width", json!("64"), "film.width", "invalid type");
+    rejects(
+        "/camera/position/2",
+        json!("far"),
+        "camera.position[2]",
+        "invalid type",
+    );
+    rejects(
+        "/integrator/single_scatter/method",
+        json!("magic"),
+        "integrator.single_scatter.method",
+        "unknown variant",
+    );
+    let mut scene = full_scene();
+    scene["camera"].as_object_mut().unwrap().remove("fov_y");
+    let e = SceneDescription::from_json(&scene.to_string()).unwrap_err();
+    assert_eq!(e.path, "camera", "{e}");
+    assert!(e.problem.contains("missing field `fov_y`"), "{e}");
+    let e = SceneDescription::from_json(&format!("{} {{}}", full_scene())).unwrap_err();
+    assert_eq!(e.path, ".", "{e}");
+    assert!(e.problem.contains("trailing"), "{e}");
+    let e = SceneDescription::from_json("{ \"camera\": ").unwrap_err();
+    assert!(e.problem.contains("EOF"), "{e}");
+    // Numbers beyond f64 are not turned into infinity.
+    let text = full_scene()
+        .to_string()
+        .replace("\"fov_y\":40", "\"fov_y\":1e400");
+    let e = SceneDescription::from_json(&text).unwrap_err();
+    assert_eq!(e.path, "camera.fov_y", "{e}");
+    assert!(e.problem.contains("out of range"), "{e}");
+}
+
+#[test]
+fn non_finite_numbers_are_rejected_everywhere() {
+    for (edit, path) in [
+        (
+            Box::new(|s: &mut SceneDescription| s.camera.position[1] = f64::NAN)
+                as Box<dyn FnOnce(&mut SceneDescription)>,
+            "camera.position[1]",
+        ),
+        (
+            Box::new(|s: &mut SceneDescription| s.camera.up[0] = f64::INFINITY),
+            "camera.up[0]",
+        ),
+        (
+            Box::new(|s: &mut SceneDescription| s.camera.fov_y = f64::NAN),
+            "camera.fov_y",
+        ),
+        (
+            Box::new(|s: &mut SceneDescription| s.background[2] = f64::INFINITY),
+            "background[2]",
+        ),
+        (
+            Box::new(|s: &mut SceneDescription| {
+                s.objects[1].transform.translate[0] = f64::NEG_INFINITY
+            }),
+            "objects[1].transform.translate[0]",
+        ),
+        (
+            Box::new(|s: &mut SceneDescription| s.objects[1].transform.rotate_deg[2] = f64::NAN),
+            "objects[1].transform.rotate_deg[2]",
+        ),
+        (
+            Box::new(|s: &mut SceneDescription| {
+                s.integrator.single_scatter.newton_tolerance = f64::NAN
+            }),
+            "integrator.single_scatter.newton_tolerance",
+        ),
+    ] {
+        rejects_value(edit, path, "finite");
+    }
+    rejects_value(
+        |s| {
+            s.lights[1] = Light::Sphere {
+                center: [0.0; 3],
+                radius: f64::NAN,
+                radiance: [1.0; 3],
+            }
+        },
+        "lights[1].radius",
+        "finite",
+    );
+    rejects_value(
+        |s| {
+            s.objects[1].material = Material::Dielectric {
+                eta: f64::INFINITY,
+                medium: Medium {
+                    sigma_t: [1.0; 3],
+                    albedo: [0.5; 3],
+                    phase: Phase::Isotropic,
+                },
+            }
+        },
+        "objects[1].material.eta",
+        "finite",
+    );
+    rejects_value(
+        |s| {
+            s.objects[1].material = Material::Dielectric {
+                eta: 1.5,
+                medium: Medium {
+                    sigma_t: [1.0, f64::NAN, 1.0],
+                    albedo: [0.5; 3],
+                    phase: Phase::Isotropic,
+                },
+            }
+        },
+        "objects[1].material.medium.sigma_t[1]",
+        "finite",
+    );
+    rejects_value(
+        |s| {
+            s.objects[1].material = Material::Dielectric {
+                eta: 1.5,
+                medium: Medium {
+                    sigma_t: [1.0; 3],
+                    albedo: [0.5; 3],
+                    phase: Phase::Hg { g: f64::NAN },
+                },
+            }
+        },
+        "objects[1].material.medium.phase.g",
+        "finite",
+    );
+}
+
+#[test]
+fn camera_values_are_checked() {
+    rejects("/camera/fov_y", json!(0), "camera.fov_y", "(0, 180)");
+    rejects("/camera/fov_y", json!(180), "camera.fov_y", "(0, 180)");
+    rejects("/camera/fov_y", json!(-10), "camera.fov_y", "(0, 180)");
+    rejects(
+        "/camera/look_at",
+        json!([0, 1, 5]),
+        "camera.look_at",
+        "differ",
+    );
+    rejects_value(
+        |s| {
+            s.camera.position = [0.0, 1.0, 1e308];
+            s.camera.look_at = [0.0, 1.0, -1e308];
+        },
+        "camera.look_at",
+        "overflows",
+    );
+    rejects("/camera/up", json!([0, 0, 0]), "camera.up", "zero");
+    rejects("/camera/up", json!([0, 0, 1]), "camera.up", "parallel");
+    rejects("/camera/up", json!([0, 0, -3]), "camera.up", "parallel");
+    // Far from parallel but huge or tiny: fine.
+    assert!(with("/camera/up", json!([0, 1e300, 1e300])).is_ok());
+    assert!(with("/camera/up", json!([1e-300, 0, 0])).is_ok());
+}
+
+#[test]
+fn film_values_are_checked() {
+    rejects("/film/width", json!(0), "film.width", ">= 1");
+    rejects("/film/height", json!(0), "film.height", ">= 1");
+    rejects("/film/width", json!(16385), "film.width", "<= 16384");
+    assert!(with("/film/height", json!(16384)).is_ok());
+    rejects("/film/spp", json!(0), "film.spp", ">= 1");
+}
+
+#[test]
+fn light_values_are_checked() {
+    rejects(
+        "/lights/0/intensity/1",
+        json!(-1),
+        "lights[0].intensity[1]",
+        ">= 0",
+    );
+    rejects(
+        "/lights/1/radiance/0",
+        json!(-0.5),
+        "lights[1].radiance[0]",
+        ">= 0",
+    );
+    rejects("/lights/1/radius", json!(0), "lights[1].radius", "> 0");
+    rejects("/lights/1/radius", json!(-1), "lights[1].radius", "> 0");
+    assert!(with("/lights/0/intensity", json!([0, 0, 0])).is_ok());
+}
+
+#[test]
+fn shape_values_are_checked() {
+    rejects(
+        "/objects/0/shape/path",
+        json!(""),
+        "objects[0].shape.path",
+        "empty",
+    );
+    rejects(
+        "/objects/1/shape/radius",
+        json!(0),
+        "objects[1].shape.radius",
+        "> 0",
+    );
+    rejects(
+        "/objects/1/shape/subdivisions",
+        json!(11),
+        "objects[1].shape.subdivisions",
+        "21 million",
+    );
+    assert!(with("/objects/1/shape/subdivisions", json!(10)).is_ok());
+    rejects(
+        "/objects/2/shape/radius",
+        json!(-2),
+        "objects[2].shape.radius",
+        "> 0",
+    );
+    rejects(
+        "/objects/2/shape/subdivisions",
+        json!(12),
+        "objects[2].shape.subdivisions",
+        "<= 10",
+    );
+    rejects(
+        "/objects/2/shape/amplitude",
+        json!(1),
+        "objects[2].shape.amplitude",
+        "[0, 1)",
+    );
+    rejects(
+        "/objects/2/shape/amplitude",
+        json!(-0.1),
+        "objects[2].shape.amplitude",
+        "[0, 1)",
+    );
+    rejects(
+        "/objects/2/shape/frequency",
+        json!(-1),
+        "objects[2].shape.frequency",
+        ">= 0",
+    );
+}
+
+#[test]
+fn transform_values_are_checked() {
+    rejects(
+        "/objects/1/transform/scale/2",
+        json!(0),
+        "objects[1].transform.scale[2]",
+        "not be 0",
+    );
+    // A negative scale mirrors the object; that is allowed.
+    assert!(with("/objects/1/transform/scale/0", json!(-1)).is_ok());
+}
+
+#[test]
+fn material_values_are_checked() {
+    rejects(
+        "/objects/1/material/eta",
+        json!(0.9),
+        "objects[1].material.eta",
+        "unsupported",
+    );
+    rejects(
+        "/objects/1/material/eta",
+        json!(10.5),
+        "objects[1].material.eta",
+        "<= 10",
+    );
+    assert!(with("/objects/1/material/eta", json!(1)).is_ok());
+    rejects(
+        "/objects/1/material/medium/sigma_t/1",
+        json!(-0.5),
+        "objects[1].material.medium.sigma_t[1]",
+        ">= 0",
+    );
+    rejects(
+        "/objects/1/material/medium/albedo/2",
+        json!(1.01),
+        "objects[1].material.medium.albedo[2]",
+        "[0, 1]",
+    );
+    rejects(
+        "/objects/1/material/medium/albedo/0",
+        json!(-0.01),
+        "objects[1].material.medium.albedo[0]",
+        "[0, 1]",
+    );
+    rejects(
+        "/objects/1/material/medium/phase/g",
+        json!(1),
+        "objects[1].material.medium.phase.g",
+        "(-1, 1)",
+    );
+    rejects(
+        "/objects/1/material/medium/phase/g",
+        json!(-1),
+        "objects[1].material.medium.phase.g",
+        "(-1, 1)",
+    );
+    rejects(
+        "/objects/0/material/reflectance/1",
+        json!(1.5),
+        "objects[0].material.reflectance[1]",
+        "[0, 1]",
+    );
+    rejects(
+        "/objects/0/material/reflectance/0",
+        json!(-0.1),
+        "objects[0].material.reflectance[0]",
+        "[0, 1]",
+    );
+}
+
+#[test]
+fn background_is_checked() {
+    rejects("/background/1", json!(-0.1), "background[1]", ">= 0");
+}
+
+#[test]
+fn integrator_values_are_checked() {
+    rejects(
+        "/integrator/max_depth",
+        json!(65),
+        "integrator.max_depth",
+        "<= 64",
+    );
+    rejects(
+        "/integrator/internal_reflections",
+        json!(9),
+        "integrator.internal_reflections",
+        "max_depth",
+    );
+    assert!(with("/integrator/internal_reflections", json!(8)).is_ok());
+    let ss = "/integrator/single_scatter";
+    rejects(
+        &format!("{ss}/k"),
+        json!(0),
+        "integrator.single_scatter.k",
+        ">= 1",
+    );
+    rejects(
+        &format!("{ss}/newton_tolerance"),
+        json!(0),
+        "integrator.single_scatter.newton_tolerance",
+        "(0, 0.01]",
+    );
+    rejects(
+        &format!("{ss}/newton_tolerance"),
+        json!(0.02),
+        "integrator.single_scatter.newton_tolerance",
+        "(0, 0.01]",
+    );
+    assert!(with(&format!("{ss}/newton_tolerance"), json!(0.01)).is_ok());
+    rejects(
+        &format!("{ss}/samples_per_segment"),
+        json!(0),
+        "integrator.single_scatter.samples_per_segment",
+        ">= 1",
+    );
+    rejects(
+        &format!("{ss}/auto_tolerance"),
+        json!(1),
+        "integrator.single_scatter.auto_tolerance",
+        "[0, 1)",
+    );
+    rejects(
+        &format!("{ss}/auto_tolerance"),
+        json!(-0.1),
+        "integrator.single_scatter.auto_tolerance",
+        "[0, 1)",
+    );
+}
+
+#[test]
+fn the_first_bad_value_in_document_order_is_named() {
+    let mut scene = full_scene();
+    scene["film"]["spp"] = json!(0);
+    scene["objects"][2]["shape"]["radius"] = json!(0);
+    let e = SceneDescription::from_json(&scene.to_string()).unwrap_err();
+    assert_eq!(e.path, "film.spp");
+}
