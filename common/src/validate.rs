@@ -44,11 +44,12 @@ pub struct SceneError {
 }
 
 impl SceneError {
-    /// An error at `path`.
-    pub fn new(path: impl Into<String>, problem: impl Into<String>) -> SceneError {
+    /// The error `problem` (any message: a string or an error of a part of the scene) at the
+    /// JSON path `path`.
+    pub fn new(path: impl Into<String>, problem: impl ToString) -> SceneError {
         SceneError {
             path: path.into(),
-            problem: problem.into(),
+            problem: problem.to_string(),
         }
     }
 }

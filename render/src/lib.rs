@@ -17,6 +17,7 @@ pub mod mesh;
 pub mod obj;
 pub mod procedural;
 pub mod ray;
+pub mod rgb;
 pub mod sampler;
 pub mod scatter;
 pub mod scene;
@@ -25,9 +26,8 @@ pub mod tile;
 pub mod transform;
 pub mod transport;
 
-/// Linear RGB radiance (or throughput), one f64 per channel.
-pub type Rgb = glam::DVec3;
-
 pub use frame::render_frame;
-pub use scene::{Assets, Scene, SceneError};
+pub use rgb::Rgb;
+pub use scene::{Assets, Scene};
+pub use spindle_common::validate::SceneError;
 pub use tile::{PixelValue, render_pixel, render_tile, render_tile_with_progress};

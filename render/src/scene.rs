@@ -12,6 +12,7 @@ use std::collections::HashMap;
 use glam::DVec3;
 use rayon::prelude::*;
 use spindle_common::scene as desc;
+use spindle_common::validate::SceneError;
 
 use crate::Rgb;
 use crate::bvh::Bvh;
@@ -28,38 +29,20 @@ use crate::transform::Transform;
 /// in the scene. The caller reads the files (or fetches them by hash); the renderer reads none.
 pub type Assets = HashMap<String, Vec<u8>>;
 
-/// A scene value that cannot be rendered, with the JSON path of the culprit.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{path}: {problem}")]
-pub struct SceneError {
-    /// JSON path, e.g. `objects[0].material.medium.sigma_t`.
-    pub path: String,
-    pub problem: String,
-}
-
-impl SceneError {
-    fn new(path: impl Into<String>, problem: impl ToString) -> SceneError {
-        SceneError {
-            path: path.into(),
-            problem: problem.to_string(),
+/// An error of a part of the scene whose own message starts with a field name (`sigma_t: must be
+/// ...`): the field joins the path (`objects[0].material.medium.sigma_t`).
+fn nested_error(path: impl Into<String>, problem: impl ToString) -> SceneError {
+    let (path, problem) = (path.into(), problem.to_string());
+    match problem.split_once(": ") {
+        Some((field, rest))
+            if !field.is_empty()
+                && field
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '.') =>
+        {
+            SceneError::new(format!("{path}.{field}"), rest)
         }
-    }
-
-    /// An error of a part whose own message starts with a field name (`sigma_t: must be ...`):
-    /// the field joins the path (`objects[0].material.medium.sigma_t`).
-    fn nested(path: impl Into<String>, problem: impl ToString) -> SceneError {
-        let (path, problem) = (path.into(), problem.to_string());
-        match problem.split_once(": ") {
-            Some((field, rest))
-                if !field.is_empty()
-                    && field
-                        .chars()
-                        .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '.') =>
-            {
-                SceneError::new(format!("{path}.{field}"), rest)
-            }
-            _ => SceneError::new(path, problem),
-        }
+        _ => SceneError::new(path, problem),
     }
 }
 
@@ -131,16 +114,14 @@ impl Scene {
     pub fn build(scene: &desc::SceneDescription, assets: &Assets) -> Result<Scene, SceneError> {
         // The scene format's own rules first (the same checks `Scene::from_json` applies), so
         // a description that did not come through JSON is held to them too.
-        scene
-            .validate()
-            .map_err(|e| SceneError::new(e.path, e.problem))?;
+        scene.validate()?;
         let film = scene.film.clone();
         if film.spp == 0 {
             return Err(SceneError::new("film.spp", "must be >= 1"));
         }
         let camera = Camera::new(&scene.camera, film.width, film.height).map_err(|e| match e {
             crate::camera::CameraError::Size(..) => SceneError::new("film", e),
-            _ => SceneError::nested("camera", e),
+            _ => nested_error("camera", e),
         })?;
         let background = DVec3::from_array(scene.background);
         if !background.is_finite() || background.min_element() < 0.0 {
@@ -157,7 +138,7 @@ impl Scene {
             .lights
             .iter()
             .enumerate()
-            .map(|(i, l)| Light::new(l).map_err(|e| SceneError::nested(format!("lights[{i}]"), e)))
+            .map(|(i, l)| Light::new(l).map_err(|e| nested_error(format!("lights[{i}]"), e)))
             .collect::<Result<Vec<_>, _>>()?;
 
         let objects = scene
@@ -362,7 +343,7 @@ fn build_object(
         }
     };
     let transform =
-        Transform::new(&object.transform).map_err(|e| SceneError::nested(field("transform"), e))?;
+        Transform::new(&object.transform).map_err(|e| nested_error(field("transform"), e))?;
     let mesh = transform.apply(&local);
     if mesh.positions().iter().any(|p| !p.is_finite()) {
         return Err(SceneError::new(
@@ -381,7 +362,7 @@ fn build_object(
             Material::Dielectric(Dielectric {
                 eta: *eta,
                 medium: Medium::new(medium)
-                    .map_err(|e| SceneError::nested(field("material.medium"), e))?,
+                    .map_err(|e| nested_error(field("material.medium"), e))?,
             })
         }
         desc::Material::Diffuse { reflectance } => {
@@ -410,149 +391,4 @@ fn build_object(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn scene_json(objects: &str, lights: &str) -> desc::SceneDescription {
-        serde_json::from_str(&format!(
-            r#"{{ "camera": {{ "position": [0, 0, 5], "look_at": [0, 0, 0], "fov_y": 30 }},
-                 "film": {{ "width": 8, "height": 6 }},
-                 "lights": [{lights}], "objects": [{objects}] }}"#
-        ))
-        .unwrap()
-    }
-
-    const GLASS: &str = r#""material": { "type": "dielectric", "eta": 1.5,
-        "medium": { "sigma_t": [1, 1, 1], "albedo": [0.5, 0.5, 0.5] } }"#;
-    const OPEN_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
-
-    fn error(objects: &str, lights: &str, assets: &Assets) -> String {
-        Scene::build(&scene_json(objects, lights), assets)
-            .unwrap_err()
-            .to_string()
-    }
-
-    #[test]
-    fn bad_values_are_named_by_json_path() {
-        let none = Assets::new();
-        let ico = |extra: &str| {
-            format!(
-                r#"{{ "shape": {{ "type": "icosphere", "radius": 1, "subdivisions": 1 }}, {extra} }}"#
-            )
-        };
-        let cases = [
-            (
-                ico(&GLASS.replace("1.5", "0.8")),
-                "",
-                "objects[0].material.eta",
-            ),
-            (
-                ico(&GLASS.replace("[1, 1, 1]", "[1, -1, 1]")),
-                "",
-                "objects[0].material.medium.sigma_t",
-            ),
-            (
-                ico(&GLASS.replace(
-                    r#""albedo": [0.5, 0.5, 0.5]"#,
-                    r#""albedo": [0.5, 0.5, 0.5], "phase": { "type": "hg", "g": -1 }"#,
-                )),
-                "",
-                "objects[0].material.medium.phase.g",
-            ),
-            (
-                format!(
-                    r#"{{ "shape": {{ "type": "icosphere", "radius": 0, "subdivisions": 1 }}, {GLASS} }}"#
-                ),
-                "",
-                "objects[0].shape.radius",
-            ),
-            (
-                format!(
-                    r#"{{ "shape": {{ "type": "icosphere", "radius": 1, "subdivisions": 40 }}, {GLASS} }}"#
-                ),
-                "",
-                "objects[0].shape.subdivisions",
-            ),
-            (
-                format!(
-                    r#"{{ "shape": {{ "type": "bumpy_sphere", "radius": 1, "subdivisions": 1, "amplitude": 1.5, "frequency": 2 }}, {GLASS} }}"#
-                ),
-                "",
-                "objects[0].shape.amplitude",
-            ),
-            (
-                ico(&format!(
-                    r#""transform": {{ "scale": [1, 0, 1] }}, {GLASS}"#
-                )),
-                "",
-                "objects[0].transform.scale",
-            ),
-            (
-                ico(r#""material": { "type": "diffuse", "reflectance": [2, 0, 0] }"#),
-                "",
-                "objects[0].material.reflectance",
-            ),
-            (
-                format!(r#"{{ "shape": {{ "type": "obj", "path": "missing.obj" }}, {GLASS} }}"#),
-                "",
-                r#"objects[0].shape.path: no file was supplied for "missing.obj""#,
-            ),
-            (
-                String::new(),
-                r#"{ "type": "sphere", "center": [0, 0, 0], "radius": -1, "radiance": [1, 1, 1] }"#,
-                "lights[0].radius",
-            ),
-            (
-                String::new(),
-                r#"{ "type": "point", "position": [0, 0, 0], "intensity": [1, -1, 1] }"#,
-                "lights[0].intensity",
-            ),
-        ];
-        for (objects, lights, expected) in cases {
-            let e = error(&objects, lights, &none);
-            assert!(e.starts_with(expected), "expected {expected:?}, got {e:?}");
-        }
-        let mut bad_obj = Assets::new();
-        bad_obj.insert(
-            "bad.obj".into(),
-            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n".to_vec(),
-        );
-        let e = error(
-            &format!(r#"{{ "shape": {{ "type": "obj", "path": "bad.obj" }}, {GLASS} }}"#),
-            "",
-            &bad_obj,
-        );
-        assert!(e.starts_with("objects[0].shape.path: bad.obj: "), "{e}");
-    }
-
-    #[test]
-    fn camera_and_film_errors_are_named() {
-        let mut d = scene_json("", "");
-        d.camera.fov_y = 0.0;
-        let e = Scene::build(&d, &Assets::new()).unwrap_err().to_string();
-        assert!(e.starts_with("camera.fov_y"), "{e}");
-        let mut d = scene_json("", "");
-        d.film.spp = 0;
-        let e = Scene::build(&d, &Assets::new()).unwrap_err().to_string();
-        assert!(e.starts_with("film.spp"), "{e}");
-    }
-
-    #[test]
-    fn open_dielectric_mesh_is_a_warning_and_triangles_are_located() {
-        let assets = Assets::from([("open.obj".to_string(), OPEN_OBJ.as_bytes().to_vec())]);
-        let objects = format!(
-            r#"{{ "shape": {{ "type": "icosphere", "radius": 1, "subdivisions": 1 }}, {GLASS} }},
-               {{ "shape": {{ "type": "obj", "path": "open.obj" }}, {GLASS} }}"#
-        );
-        let scene = Scene::build(&scene_json(&objects, ""), &assets).unwrap();
-        assert_eq!(scene.warnings().len(), 1);
-        assert!(scene.warnings()[0].starts_with(
-            "objects[1] (open.obj): the dielectric mesh is not closed (3 boundary edges)"
-        ));
-        assert_eq!(scene.triangle_count(), 81);
-        assert_eq!(scene.locate(0), (0, 0));
-        assert_eq!(scene.locate(79), (0, 79));
-        assert_eq!(scene.locate(80), (1, 0));
-        assert_eq!(scene.summary().triangles, 81);
-    }
-}
+mod tests;

@@ -178,11 +178,13 @@ fn interact(
             out.surface += state.throughput
                 * direct_diffuse(
                     scene,
-                    p,
-                    geometric,
-                    shading,
-                    ray.dir,
-                    reflectance,
+                    &DiffuseHit {
+                        p,
+                        geometric,
+                        shading,
+                        incoming: ray.dir,
+                        reflectance,
+                    },
                     sampler,
                     stats,
                 );
@@ -248,19 +250,36 @@ fn interact(
     }
 }
 
+/// A camera path's hit on a Lambertian surface, as its direct lighting sees it.
+#[derive(Debug, Clone, Copy)]
+struct DiffuseHit {
+    /// The point hit.
+    p: DVec3,
+    /// The geometric normal there.
+    geometric: DVec3,
+    /// The shading normal there.
+    shading: DVec3,
+    /// The direction of the ray that hit it.
+    incoming: DVec3,
+    /// The surface's reflectance.
+    reflectance: Rgb,
+}
+
 /// Radiance leaving a Lambertian surface at `p` toward the camera, lit directly by every light
 /// (one sample each), with shadow rays against all geometry (dielectrics included).
-#[allow(clippy::too_many_arguments)]
 fn direct_diffuse(
     scene: &Scene,
-    p: DVec3,
-    geometric: DVec3,
-    shading: DVec3,
-    incoming: DVec3,
-    reflectance: Rgb,
+    hit: &DiffuseHit,
     sampler: &mut Sampler,
     stats: &mut RenderStats,
 ) -> Rgb {
+    let DiffuseHit {
+        p,
+        geometric,
+        shading,
+        incoming,
+        reflectance,
+    } = *hit;
     // Two-sided: light the side the camera sees.
     let (n, ng) = if incoming.dot(geometric) < 0.0 {
         (shading, geometric)

@@ -16,7 +16,7 @@ fn scenes_dir() -> PathBuf {
 /// Each example scene at a quarter of its resolution (same camera, so the same view sampled
 /// more coarsely) and 1 spp, to keep the test short in the dev profile. The full renders were
 /// checked too: `spindle render scenes/<name>.json --workers 0 --stats` prints
-/// `capacity_drops 0` for both (the bumpy sphere printed 38 before long arcs were thinned).
+/// `capacity_drops 0` for both.
 #[test]
 fn example_scenes_drop_nothing() {
     let mut rendered = 0;

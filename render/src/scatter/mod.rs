@@ -14,14 +14,12 @@
 //! medium is denser); the light is outside; the shading normal points outward, toward the light;
 //! the camera segment is `V(t) = origin + t·dir` with `dir` a unit vector, so t is a distance.
 
+pub mod geometry;
 pub mod light_sample;
 pub mod methods;
 pub mod plan;
 pub mod prune;
 pub mod triangle;
-
-#[cfg(test)]
-mod tests;
 
 use spindle_common::stats::RenderStats;
 

@@ -14,7 +14,7 @@
 
 use spindle_common::scene::{ScatterMethod, SingleScatter};
 
-use crate::scatter::prune::cull::BoundingSphere;
+use crate::scatter::geometry::BoundingSphere;
 use crate::scene::{Material, Object, Scene};
 
 /// Object size in mean free paths above which `auto` may use the straight-line model ([H15]

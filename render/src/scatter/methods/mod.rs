@@ -19,19 +19,16 @@ pub mod straight_line;
 use glam::DVec3;
 
 use crate::scatter::methods::connect::Connection;
-use crate::scatter::prune::cull::SegmentQuery;
+use crate::scatter::prune::SegmentQuery;
+use crate::scatter::triangle::ends::DepthRange;
 use crate::scatter::triangle::patch::TrianglePatch;
 
 impl Connection<'_> {
     /// The pruning query of the camera points `V(t)`, `t ∈ [t_lo, t_hi]`, and this light point.
     pub fn query(&self, t_lo: f64, t_hi: f64) -> SegmentQuery {
         SegmentQuery {
-            origin: self.ends.origin,
-            dir: self.ends.dir,
-            t_lo,
-            t_hi,
-            light: self.light.position(),
-            eta: self.ends.eta,
+            ends: self.ends,
+            range: DepthRange { lo: t_lo, hi: t_hi },
         }
     }
 

@@ -32,7 +32,7 @@ use spindle_common::stats::RenderStats;
 
 use crate::Rgb;
 use crate::medium::Medium;
-use crate::scatter::prune::bounds::TrianglePlane;
+use crate::scatter::geometry::TrianglePlane;
 use crate::scatter::triangle::contribution::path_contribution;
 use crate::scatter::triangle::edge::{
     BarycentricLine, Crossing, Edge, LineScan, edge_crossings, line_crossings, scan_line,

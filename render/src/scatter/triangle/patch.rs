@@ -6,7 +6,7 @@
 
 use glam::DVec3;
 
-use crate::scatter::prune::bounds::facing_bounds;
+use crate::scatter::geometry::facing_bounds;
 use crate::scatter::triangle::ends::PathEnds;
 
 /// Relative threshold below which a triangle is degenerate: `‖E1×E2‖ < DEGENERATE · max edge²`,

@@ -8,12 +8,12 @@ use serde_json::{Value, json};
 use spindle_common::scene as desc;
 use spindle_common::stats::RenderStats;
 
-use super::{describe_plan, single_scatter};
-use crate::Rgb;
-use crate::ray::Ray;
-use crate::sampler::Sampler;
-use crate::scene::{Assets, Scene};
-use crate::segment::Segment;
+use spindle_render::Rgb;
+use spindle_render::ray::Ray;
+use spindle_render::sampler::Sampler;
+use spindle_render::scatter::{describe_plan, single_scatter};
+use spindle_render::scene::{Assets, Scene};
+use spindle_render::segment::Segment;
 
 /// What a test scene is made of (one object, lights, integrator settings).
 #[derive(Clone)]
@@ -162,10 +162,9 @@ fn eta_one_matches_the_airlight_closed_form() {
 ///   sampling at the same η (M = 4096, 4 camera samples; measured at most 2.6e-5). At η = 1.001
 ///   it lies 1.1e-4 to 3.8e-4 from η = 1: the physical change, not asserted.
 ///
-/// Before the Newton solver stepped on the scaled residual `‖h‖·f` (`Residual::scaled`), the
-/// fixed-t solves at η = 1 + 1e-6 failed from their seeds and the interval method was 13.6 % low
-/// here; before the trace ended arcs on a range end at the triangle's plane
-/// (`range_end_exit` in `interval`), one arc was counted twice at η = 1.001 (14.5 % high).
+/// The near-1 cases rest on the Newton solver stepping on the scaled residual `‖h‖·f`
+/// (`Residual::scaled`) and on the trace ending arcs on a range end at the triangle's plane
+/// (`range_end_exit` in `interval`).
 #[test]
 fn eta_near_one_matches_eta_one() {
     for (name, setup) in [

@@ -1,0 +1,58 @@
+use super::*;
+
+const TETRA: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+
+#[test]
+fn tetrahedron_is_closed_with_outward_smooth_normals() {
+    let mesh = parse_obj(TETRA.as_bytes()).unwrap();
+    let report = mesh.report();
+    assert_eq!(report.triangles, 4);
+    assert!(report.closed);
+    let centre = DVec3::splat(0.25);
+    for (p, n) in mesh.positions().iter().zip(mesh.normals()) {
+        assert!(n.dot(*p - centre) > 0.0);
+    }
+}
+
+#[test]
+fn quads_are_triangulated_and_file_normals_used() {
+    let text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvn 0 0 2\nf 1//1 2//1 3//1 4//1\n";
+    let mesh = parse_obj(text.as_bytes()).unwrap();
+    assert_eq!(mesh.triangle_count(), 2);
+    assert!(mesh.normals().iter().all(|n| *n == DVec3::Z));
+    assert!(!mesh.report().closed);
+}
+
+#[test]
+fn nan_and_infinite_coordinates_are_rejected() {
+    for bad in ["nan", "inf", "-inf"] {
+        let text = TETRA.replace("v 0 1 0", &format!("v 0 {bad} 0"));
+        let e = parse_obj(text.as_bytes()).unwrap_err();
+        assert!(
+            matches!(e, ObjError::NonFinite(p) if p[0] == 0.0 && !p[1].is_finite() && p[2] == 0.0),
+            "{bad}: {e}"
+        );
+    }
+}
+
+#[test]
+fn out_of_range_index_and_empty_file_are_rejected() {
+    let text = TETRA.replace("f 2 3 4", "f 2 3 9");
+    let e = parse_obj(text.as_bytes()).unwrap_err();
+    assert!(!e.to_string().is_empty());
+    assert!(
+        matches!(
+            e,
+            ObjError::Parse(_) | ObjError::Mesh(MeshError::IndexOutOfRange { .. })
+        ),
+        "{e}"
+    );
+    assert_eq!(
+        parse_obj(b"").unwrap_err(),
+        ObjError::Mesh(MeshError::Empty)
+    );
+    assert_eq!(
+        parse_obj(b"v 0 0 0\nv 1 0 0\n").unwrap_err(),
+        ObjError::Mesh(MeshError::Empty)
+    );
+}

@@ -1,0 +1,167 @@
+//! The pruned descent keeps every triangle with a valid path, and yields every triangle when
+//! pruning is off.
+
+use glam::DVec3;
+use spindle_common::scene::Pruning;
+use spindle_common::stats::RenderStats;
+
+use crate::bvh::Bvh;
+use crate::medium::{Medium, PhaseFunction};
+use crate::procedural::bumpy_sphere;
+use crate::scatter::prune::SegmentQuery;
+use crate::scatter::prune::bounds::PruneBounds;
+use crate::scatter::prune::descent::{DescentStack, for_each_candidate};
+use crate::scatter::triangle::ends::{DepthRange, PathEnds};
+use crate::scene::{Dielectric, Material, Object};
+
+fn object() -> Object {
+    let mesh = bumpy_sphere(1.0, 3, 0.15, 2.0, 7);
+    let triangles: Vec<[DVec3; 3]> = (0..mesh.triangle_count())
+        .map(|i| mesh.corners(i))
+        .collect();
+    let report = mesh.report();
+    let bvh = Bvh::build(&triangles);
+    Object {
+        name: "objects[0]".into(),
+        bounds: PruneBounds::build(&mesh, &bvh),
+        bvh,
+        mesh,
+        material: Material::Dielectric(Dielectric {
+            eta: 1.5,
+            medium: Medium {
+                sigma_t: DVec3::ONE,
+                sigma_s: DVec3::ONE,
+                phase: PhaseFunction::Isotropic,
+            },
+        }),
+        report,
+    }
+}
+
+/// splitmix64 numbers in [0, 1) for test configurations.
+fn uniform(state: &mut u64) -> f64 {
+    *state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    let mut z = *state;
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// Through the whole descent (spindle on BVH nodes, cone on triangles): for valid refraction
+/// paths built forward on random triangles of a bumpy sphere (Snell's law at the interpolated
+/// normal, sidedness checked), the path's triangle is always a candidate and its trimmed range
+/// holds the path's t. The counters add up, and pruning culls most of the tree.
+#[test]
+fn descent_keeps_every_triangle_with_a_valid_path() {
+    let object = object();
+    let mesh = &object.mesh;
+    let mut state = 11;
+    let mut stack = DescentStack::default();
+    let mut stats = RenderStats::default();
+    let mut checked = 0;
+    for _ in 0..3000 {
+        let triangle = (uniform(&mut state) * mesh.triangle_count() as f64) as usize;
+        let (mut a, mut b) = (uniform(&mut state), uniform(&mut state));
+        if a + b > 1.0 {
+            (a, b) = (1.0 - a, 1.0 - b);
+        }
+        let p = mesh.point(triangle, a, b);
+        let normal = mesh.shading_normal(triangle, a, b);
+        let eta = 1.5;
+        let cos_l = uniform(&mut state).max(1e-6);
+        let sin_v = (1.0 - cos_l * cos_l).sqrt() / eta;
+        let cos_v = (1.0 - sin_v * sin_v).sqrt();
+        let phi = std::f64::consts::TAU * uniform(&mut state);
+        let (s, t) = normal.any_orthonormal_pair();
+        let d = cos_v * normal + sin_v * (phi.cos() * s + phi.sin() * t);
+        let omega_l = (eta * d - (eta * cos_v - cos_l) * normal).normalize();
+        let v = p - 0.5 * uniform(&mut state) * d;
+        let light = p + (0.1 + 10.0 * uniform(&mut state)) * omega_l;
+        let ng = mesh.geometric_normal(triangle).normalize();
+        if (light - p).dot(ng) <= 0.0 || (v - p).dot(ng) >= 0.0 {
+            continue;
+        }
+        let dir = DVec3::new(uniform(&mut state) - 0.5, uniform(&mut state) - 0.5, 0.3).normalize();
+        let t_v = uniform(&mut state);
+        let query = SegmentQuery {
+            ends: PathEnds {
+                origin: v - t_v * dir,
+                dir,
+                light,
+                eta,
+            },
+            range: DepthRange {
+                lo: 0.0,
+                hi: 1.0 + uniform(&mut state),
+            },
+        };
+        let mut found = false;
+        let before = stats;
+        for_each_candidate(
+            &object,
+            &query,
+            &Pruning::default(),
+            &mut stack,
+            &mut stats,
+            |c, _| {
+                if c.triangle as usize == triangle {
+                    assert!(c.t_lo <= t_v && t_v <= c.t_hi, "{c:?} misses t = {t_v}");
+                    found = true;
+                }
+            },
+        );
+        assert!(
+            found,
+            "triangle {triangle} culled for a valid path: {query:?}"
+        );
+        assert!(stats.bvh_nodes_visited > before.bvh_nodes_visited);
+        checked += 1;
+    }
+    let nodes = object.bvh.nodes().len() as u64;
+    println!(
+        "{checked} paths; per query: {:.1} of {nodes} nodes visited, {:.1} culled by the spindle, \
+         {:.1} triangles tested, {:.1} culled by the cone",
+        stats.bvh_nodes_visited as f64 / checked as f64,
+        stats.nodes_culled_spindle as f64 / checked as f64,
+        stats.triangles_tested as f64 / checked as f64,
+        stats.triangles_culled_cone as f64 / checked as f64,
+    );
+    assert!(checked > 1000);
+    assert!(stats.nodes_culled_spindle > 0 && stats.triangles_culled_cone > 0);
+    assert!(stats.triangles_tested < checked * mesh.triangle_count() as u64);
+}
+
+/// With both stages off, the descent yields every triangle once, with the full range.
+#[test]
+fn descent_without_pruning_yields_every_triangle() {
+    let object = object();
+    let query = SegmentQuery {
+        ends: PathEnds {
+            origin: DVec3::new(0.0, 0.0, -0.5),
+            dir: DVec3::Z,
+            light: DVec3::new(0.0, 0.0, 5.0),
+            eta: 1.5,
+        },
+        range: DepthRange { lo: 0.0, hi: 1.0 },
+    };
+    let off = Pruning {
+        spindle: false,
+        cone: false,
+        plane: false,
+    };
+    let mut seen = vec![0; object.mesh.triangle_count()];
+    let mut stats = RenderStats::default();
+    for_each_candidate(
+        &object,
+        &query,
+        &off,
+        &mut DescentStack::default(),
+        &mut stats,
+        |c, _| {
+            assert_eq!((c.t_lo, c.t_hi), (0.0, 1.0));
+            seen[c.triangle as usize] += 1;
+        },
+    );
+    assert!(seen.iter().all(|&n| n == 1));
+    assert_eq!(stats.triangles_tested, object.mesh.triangle_count() as u64);
+}
