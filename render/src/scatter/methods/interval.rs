@@ -1,6 +1,6 @@
 //! The interval method of [H15] §3.2 for one camera segment and one light point: the pruned
 //! descent gives candidate triangles with trimmed `t`-ranges; on each, the per-triangle depth
-//! intervals (one per monotone branch of the solution curve, folds split; see `interval`) are
+//! intervals (one per monotone branch of the solution curve, folds split; see `branches`) are
 //! sampled with `K = k` points each — the midpoint rule `t_i = t_min + (i + ½)(t_max − t_min)/K`
 //! ([H15] eqs. 18–19), or, with `jitter`, `t_i = t_min + (i + u_i)(t_max − t_min)/K` where
 //! `u_i = frac(u + i·φ)` for one uniform `u` per interval and the golden ratio φ: every `u_i` is
@@ -14,7 +14,8 @@ use crate::sampler::Sampler;
 use crate::scatter::methods::connect::Connection;
 use crate::scatter::methods::edge_scans::EdgeScans;
 use crate::scatter::prune::descent::{DescentStack, for_each_candidate};
-use crate::scatter::triangle::interval::{SampleRule, for_each_sample, triangle_intervals_with};
+use crate::scatter::triangle::branches::{SampleRule, for_each_sample, triangle_intervals_with};
+use crate::scatter::triangle::ends::DepthRange;
 
 /// The fractional part of the golden ratio, the stride of the jittered offsets.
 const GOLDEN: f64 = 0.618_033_988_749_894_9;
@@ -46,10 +47,13 @@ pub fn estimate(
             let Some(patch) = connection.patch(candidate.triangle) else {
                 return;
             };
-            let (t_lo, t_hi) = (candidate.t_lo, candidate.t_hi);
+            let range = DepthRange {
+                lo: candidate.t_lo,
+                hi: candidate.t_hi,
+            };
             let edge_scan = |edge| scans.scan(mesh, candidate.triangle, edge, &ends);
             let intervals =
-                triangle_intervals_with(&patch, &ends, t_lo, t_hi, tolerance, edge_scan, stats);
+                triangle_intervals_with(&patch, &ends, range, tolerance, edge_scan, stats);
             for interval in intervals.iter() {
                 let u = if settings.jitter {
                     sampler.next_f64()

@@ -17,6 +17,7 @@ use crate::Rgb;
 use crate::sampler::Sampler;
 use crate::scatter::methods::connect::Connection;
 use crate::scatter::prune::descent::{DescentStack, for_each_candidate};
+use crate::scatter::triangle::ends::DepthRange;
 use crate::scatter::triangle::solve::{
     NewtonSettings, RefractionPath, Slice, newton, straight_line_guess,
 };
@@ -31,7 +32,13 @@ pub fn estimate(
     stats: &mut RenderStats,
 ) -> Rgb {
     let m = settings.samples_per_segment.max(1);
-    let newton_settings = NewtonSettings::new(settings.newton_tolerance, (0.0, length));
+    let newton_settings = NewtonSettings::new(
+        settings.newton_tolerance,
+        DepthRange {
+            lo: 0.0,
+            hi: length,
+        },
+    );
     let mut sum = Rgb::ZERO;
     for j in 0..m {
         let t = (j as f64 + sampler.next_f64()) / m as f64 * length;
@@ -57,7 +64,7 @@ pub fn estimate(
                         stats.newton_failures += 1;
                         continue;
                     };
-                    let (a, b) = (zero.x[1], zero.x[2]);
+                    let (a, b) = (zero.x.a, zero.x.b);
                     let ends = &connection.ends;
                     if let Some(path) =
                         RefractionPath::from_zero(&patch, ends, t, a, b, &zero.residual)

@@ -15,6 +15,7 @@ use super::plane_sides_allow;
 use crate::Rgb;
 use crate::sampler::Sampler;
 use crate::scatter::methods::connect::Connection;
+use crate::scatter::triangle::ends::DepthRange;
 use crate::scatter::triangle::solve::{
     NewtonSettings, RefractionPath, Slice, newton, straight_line_guess,
 };
@@ -36,7 +37,13 @@ pub fn estimate(
     stats: &mut RenderStats,
 ) -> Rgb {
     let m = settings.samples_per_segment.max(1);
-    let newton_settings = NewtonSettings::new(settings.newton_tolerance, (0.0, length));
+    let newton_settings = NewtonSettings::new(
+        settings.newton_tolerance,
+        DepthRange {
+            lo: 0.0,
+            hi: length,
+        },
+    );
     let ends = connection.ends;
     let mut sum = Rgb::ZERO;
     for j in 0..m {
@@ -70,7 +77,7 @@ pub fn estimate(
                     stats.newton_failures += 1;
                     continue;
                 };
-                let (a, b) = (zero.x[1], zero.x[2]);
+                let (a, b) = (zero.x.a, zero.x.b);
                 let seen = found[..count]
                     .iter()
                     .any(|&(fa, fb)| (fa - a).abs() + (fb - b).abs() < SAME_SOLUTION);

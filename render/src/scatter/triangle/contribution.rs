@@ -31,6 +31,7 @@ pub fn path_contribution(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scatter::triangle::ends::DepthRange;
     use crate::scatter::triangle::ground_truth::gauss_legendre;
     use crate::scatter::triangle::patch::TrianglePatch;
     use crate::scatter::triangle::solve::{NewtonSettings, solve_at, straight_line_guess};
@@ -55,7 +56,7 @@ mod tests {
         .unwrap();
         let (ends, length, medium) =
             crate::scatter::triangle::ground_truth::flat_plane_integral_setup();
-        let settings = NewtonSettings::new(1e-14, (0.0, length));
+        let settings = NewtonSettings::new(1e-14, DepthRange::new(0.0, length));
         let integrand = |t: f64| {
             let guess = straight_line_guess(&patch, &ends, t).unwrap();
             let path = solve_at(&patch, &ends, t, guess, &settings)

@@ -6,13 +6,14 @@
 //! use:
 //! * [`distance_flat`], the closed form (3) for flat triangles (N̂s = N̂g), WITH the η on `d_L`
 //!   that the printed [H15] eq. 11 lacks (physics.md §1.2: the note wins);
-//! * [`distance_ray_differential`], the ray-differential form (4) with the shading-normal
+//! * `distance_ray_differential` (tests only), the ray-differential form (4) with the shading-normal
 //!   derivative (Igehy's transfer and refraction differentials);
 //! * [`distance_jacobian`], the Jacobian form (5): one cross product once Newton has converged.
 //!
 //! [`distance_factor`] picks (3) for flat triangles and (5) otherwise; the tests show (5) equals (4)
 //! and finite differences.
 
+#[cfg(test)]
 use glam::DVec3;
 
 use crate::scatter::triangle::patch::{Residual, TrianglePatch};
@@ -25,6 +26,7 @@ pub fn distance_flat(d_v: f64, d_l: f64, cos_v: f64, cos_l: f64, eta: f64) -> f6
 }
 
 /// D from ray differentials, physics.md eq. (4) and the recipe of §1.3, at a zero of f.
+#[cfg(test)]
 pub fn distance_ray_differential(patch: &TrianglePatch, eta: f64, r: &Residual) -> f64 {
     let d = -r.omega_v;
     let n = r.normal_s;
@@ -86,7 +88,7 @@ pub fn distance_factor(patch: &TrianglePatch, eta: f64, r: &Residual) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scatter::triangle::ends::PathEnds;
+    use crate::scatter::triangle::ends::{DepthRange, PathEnds};
     use crate::scatter::triangle::ground_truth::{
         SplitMix, backward_fd_distance, curved_patch, flat_cases, forward_fd_distance,
     };
@@ -99,7 +101,7 @@ mod tests {
     }
 
     fn solve(patch: &TrianglePatch, ends: &PathEnds) -> (RefractionPath, Residual) {
-        let settings = NewtonSettings::new(1e-14, (0.0, 0.0));
+        let settings = NewtonSettings::new(1e-14, DepthRange::new(0.0, 0.0));
         let guess = straight_line_guess(patch, ends, 0.0).unwrap();
         let path = solve_at(patch, ends, 0.0, guess, &settings)
             .0
@@ -257,7 +259,7 @@ mod tests {
                 ),
                 eta: rng.range(1.1, 2.5),
             };
-            let settings = NewtonSettings::new(1e-14, (0.0, 0.0));
+            let settings = NewtonSettings::new(1e-14, DepthRange::new(0.0, 0.0));
             let Some(guess) = straight_line_guess(&patch, &ends, 0.0) else {
                 continue;
             };

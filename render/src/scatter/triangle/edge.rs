@@ -10,7 +10,8 @@
 use glam::DVec3;
 use spindle_common::stats::RenderStats;
 
-use crate::scatter::triangle::ends::PathEnds;
+use crate::scatter::triangle::curve::CurvePoint;
+use crate::scatter::triangle::ends::{DepthRange, PathEnds};
 use crate::scatter::triangle::patch::{Residual, TrianglePatch};
 use crate::scatter::triangle::small_list::SmallList;
 use crate::scatter::triangle::solve::{NewtonSettings, Slice, is_physical, newton};
@@ -103,14 +104,14 @@ impl Edge {
         self.line().slice()
     }
 
-    /// The component of a parameter-space direction `g = (g_t, g_a, g_b)` pointing into the
-    /// triangle across this edge.
+    /// The component of a parameter-space direction g pointing into the triangle across this
+    /// edge.
     #[inline]
-    pub fn inward(self, g: [f64; 3]) -> f64 {
+    pub fn inward(self, g: CurvePoint) -> f64 {
         match self {
-            Edge::A0 => g[1],
-            Edge::B0 => g[2],
-            Edge::Ab1 => -(g[1] + g[2]),
+            Edge::A0 => g.a,
+            Edge::B0 => g.b,
+            Edge::Ab1 => -(g.a + g.b),
         }
     }
 }
@@ -129,10 +130,10 @@ pub enum Bound {
 pub struct Crossing {
     /// Which edge.
     pub edge: Edge,
-    /// The parameter-space point `(t, a, b)`.
-    pub x: [f64; 3],
+    /// The point of the curve.
+    pub x: CurvePoint,
     /// The oriented curve tangent there (see [`Residual::tangent`]).
-    pub g: [f64; 3],
+    pub g: CurvePoint,
     /// Lower or upper bound of t, from the tangent.
     pub bound: Bound,
 }
@@ -141,8 +142,8 @@ pub struct Crossing {
 /// a maximum if `g_t/g_a < 0`; on b = 0 if `g_t/g_b < 0`; on a + b = 1 if `g_t/(g_a+g_b) > 0`. All
 /// three say: t is a maximum when moving into the triangle decreases t. None when the curve is
 /// tangent to the edge or to t = const there (no decision possible).
-pub fn classify(edge: Edge, g: [f64; 3]) -> Option<Bound> {
-    let product = g[0] * edge.inward(g);
+pub fn classify(edge: Edge, g: CurvePoint) -> Option<Bound> {
+    let product = g.t * edge.inward(g);
     if product > 0.0 {
         Some(Bound::Lower)
     } else if product < 0.0 {
@@ -247,6 +248,7 @@ pub fn skew(p: DVec3, n: DVec3, ends: &PathEnds) -> Option<Skew> {
 /// root, `‖n‖² w = ‖n‖²/η d − (d·n/η + ‖n‖‖d‖ cos θ_t) n` with `(‖n‖‖d‖ cos θ_t)² = ‖n‖²‖d‖² −
 /// (‖n‖²‖d‖² − (d·n)²)/η²`, `d = P − L`. None exactly where [`refracted`] is None (up to
 /// rounding). [`ScanPoints::skew_signs`] does the same operations, batched.
+#[cfg(test)]
 #[inline]
 pub fn skew_sign(p: DVec3, n: DVec3, ends: &PathEnds) -> Option<SkewSign> {
     let d = p - ends.light;
@@ -313,7 +315,7 @@ impl ScanPoints {
         }
     }
 
-    /// [`skew_sign`] at every point, with exactly its operations in its order (so the same bits),
+    /// `skew_sign` at every point, with exactly its operations in its order (so the same bits),
     /// computed for all points and then masked where `skew_sign` would return None.
     fn skew_signs(&self, ends: &PathEnds) -> LineScan {
         const N: usize = LINE_SCAN + 1;
@@ -360,91 +362,93 @@ impl ScanPoints {
     }
 }
 
-/// Calls `found(x, residual)` for every point `x = (t, a, b)` where the curve crosses `line` at
-/// `s ∈ [0, 1]` and `t ∈ t_range`: sign changes of the skew scalar on [`LINE_SCAN`] intervals
-/// (`scan`, the line's [`LineScan`]), each solved exactly by Newton on the line in `(t, s)`.
-/// Newton work and failures go to `stats`.
-#[allow(clippy::too_many_arguments)]
-pub fn line_crossings(
-    patch: &TrianglePatch,
-    ends: &PathEnds,
-    line: &BarycentricLine,
-    scan: &LineScan,
-    t_range: (f64, f64),
-    tolerance: f64,
-    stats: &mut RenderStats,
-    mut found: impl FnMut([f64; 3], &Residual),
-) {
-    let full = |s: f64| {
-        let (a, b) = line.at(s);
-        skew(patch.point(a, b), patch.normal(a, b), ends)
-    };
-    for (i, pair) in scan.windows(2).enumerate() {
-        let [Some(c0), Some(c1)] = [pair[0], pair[1]] else {
-            continue;
-        };
-        // A sign change with the meeting point in front of P (inside the medium): found on the
-        // signs, confirmed on the full values at both ends.
-        if c0.same_sign(c1) || !(c0.ahead || c1.ahead) {
-            continue;
-        }
-        let (s0, s1) = (
-            i as f64 / LINE_SCAN as f64,
-            (i + 1) as f64 / LINE_SCAN as f64,
-        );
-        let (Some(v0), Some(v1)) = (full(s0), full(s1)) else {
-            continue;
-        };
-        if v0.value * v1.value > 0.0
-            || !(v0.lambda > 0.0 || v1.lambda > 0.0)
-            || v0.value == v1.value
-        {
-            continue;
-        }
-        let theta = v0.value / (v0.value - v1.value);
-        let s_guess = s0 + theta * (s1 - s0);
-        let t_guess = (v0.t + theta * (v1.t - v0.t)).clamp(t_range.0, t_range.1);
-        let settings = NewtonSettings::new(tolerance, t_range);
-        let (zero, spent) = newton(patch, ends, &line.slice(), (t_guess, s_guess), &settings);
-        stats.newton_iterations += spent as u64;
-        match zero {
-            Some(z) => {
-                let (t, s) = z.uv;
-                if (-1e-12..=1.0 + 1e-12).contains(&s) && t >= t_range.0 && t <= t_range.1 {
-                    found(z.x, &z.residual);
-                }
-            }
-            None => stats.newton_failures += 1,
-        }
-    }
+/// The solution curve of one triangle and camera segment within a depth range, solved to a
+/// tolerance: what the searches for its crossings with lines of the triangle share.
+#[derive(Debug, Clone, Copy)]
+pub struct CrossingSearch<'a> {
+    /// The triangle.
+    pub patch: &'a TrianglePatch,
+    /// The camera segment and the light point.
+    pub ends: &'a PathEnds,
+    /// The depths searched.
+    pub range: DepthRange,
+    /// The Newton tolerance of each crossing.
+    pub tolerance: f64,
 }
 
-/// Appends to `out` every crossing of the curve with `edge` at `t ∈ t_range`, from the edge's
-/// `scan` (beyond the list's capacity they are dropped, and counted in `stats.capacity_drops`).
-/// Newton evaluations and failures go to `stats`.
-#[allow(clippy::too_many_arguments)]
-pub fn edge_crossings<const N: usize>(
-    patch: &TrianglePatch,
-    ends: &PathEnds,
-    edge: Edge,
-    scan: &LineScan,
-    t_range: (f64, f64),
-    tolerance: f64,
-    out: &mut SmallList<Crossing, N>,
-    stats: &mut RenderStats,
-) {
-    let mut dropped = 0;
-    line_crossings(
-        patch,
-        ends,
-        &edge.line(),
-        scan,
-        t_range,
-        tolerance,
-        stats,
-        |x, r| push_crossing(out, patch, edge, x, r, &mut dropped),
-    );
-    stats.capacity_drops += dropped;
+impl CrossingSearch<'_> {
+    /// Calls `found(x, residual)` for every point x where the curve crosses `line` at
+    /// `s ∈ [0, 1]` and t in the range: sign changes of the skew scalar on [`LINE_SCAN`]
+    /// intervals (`scan`, the line's [`LineScan`]), each solved exactly by Newton on the line in
+    /// `(t, s)`. Newton work and failures go to `stats`.
+    pub fn line_crossings(
+        &self,
+        line: &BarycentricLine,
+        scan: &LineScan,
+        stats: &mut RenderStats,
+        mut found: impl FnMut(CurvePoint, &Residual),
+    ) {
+        let (patch, ends, range) = (self.patch, self.ends, self.range);
+        let full = |s: f64| {
+            let (a, b) = line.at(s);
+            skew(patch.point(a, b), patch.normal(a, b), ends)
+        };
+        for (i, pair) in scan.windows(2).enumerate() {
+            let [Some(c0), Some(c1)] = [pair[0], pair[1]] else {
+                continue;
+            };
+            // A sign change with the meeting point in front of P (inside the medium): found on
+            // the signs, confirmed on the full values at both ends.
+            if c0.same_sign(c1) || !(c0.ahead || c1.ahead) {
+                continue;
+            }
+            let (s0, s1) = (
+                i as f64 / LINE_SCAN as f64,
+                (i + 1) as f64 / LINE_SCAN as f64,
+            );
+            let (Some(v0), Some(v1)) = (full(s0), full(s1)) else {
+                continue;
+            };
+            if v0.value * v1.value > 0.0
+                || !(v0.lambda > 0.0 || v1.lambda > 0.0)
+                || v0.value == v1.value
+            {
+                continue;
+            }
+            let theta = v0.value / (v0.value - v1.value);
+            let s_guess = s0 + theta * (s1 - s0);
+            let t_guess = (v0.t + theta * (v1.t - v0.t)).clamp(range.lo, range.hi);
+            let settings = NewtonSettings::new(self.tolerance, range);
+            let (zero, spent) = newton(patch, ends, &line.slice(), (t_guess, s_guess), &settings);
+            stats.newton_iterations += spent as u64;
+            match zero {
+                Some(z) => {
+                    let (t, s) = z.uv;
+                    if (-1e-12..=1.0 + 1e-12).contains(&s) && range.contains(t) {
+                        found(z.x, &z.residual);
+                    }
+                }
+                None => stats.newton_failures += 1,
+            }
+        }
+    }
+
+    /// Appends to `out` every crossing of the curve with `edge` at t in the range, from the
+    /// edge's `scan` (beyond the list's capacity they are dropped, and counted in
+    /// `stats.capacity_drops`). Newton evaluations and failures go to `stats`.
+    pub fn edge_crossings<const N: usize>(
+        &self,
+        edge: Edge,
+        scan: &LineScan,
+        out: &mut SmallList<Crossing, N>,
+        stats: &mut RenderStats,
+    ) {
+        let mut dropped = 0;
+        self.line_crossings(&edge.line(), scan, stats, |x, r| {
+            push_crossing(out, self.patch, edge, x, r, &mut dropped)
+        });
+        stats.capacity_drops += dropped;
+    }
 }
 
 /// Adds a crossing unless it is not a physical path, a duplicate of one already found, or has no
@@ -453,7 +457,7 @@ fn push_crossing<const N: usize>(
     out: &mut SmallList<Crossing, N>,
     patch: &TrianglePatch,
     edge: Edge,
-    x: [f64; 3],
+    x: CurvePoint,
     r: &Residual,
     dropped: &mut u64,
 ) {
@@ -466,9 +470,9 @@ fn push_crossing<const N: usize>(
     };
     let duplicate = out.iter().any(|c| {
         c.edge == edge
-            && (c.x[0] - x[0]).abs() <= 1e-9 * (1.0 + x[0].abs())
-            && (c.x[1] - x[1]).abs() <= 1e-9
-            && (c.x[2] - x[2]).abs() <= 1e-9
+            && (c.x.t - x.t).abs() <= 1e-9 * (1.0 + x.t.abs())
+            && (c.x.a - x.a).abs() <= 1e-9
+            && (c.x.b - x.b).abs() <= 1e-9
     });
     if !duplicate {
         out.push_or_count(Crossing { edge, x, g, bound }, dropped);
@@ -476,141 +480,4 @@ fn push_crossing<const N: usize>(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::scatter::triangle::ground_truth::SplitMix;
-    use glam::DVec3;
-
-    /// The batched scan is `skew_sign` point by point, to the bit: on random points and normals
-    /// around random camera lines and lights, including normals facing away from the light
-    /// (None), η below 1 (total reflection, None) and lines parallel to the refracted ray.
-    #[test]
-    fn batched_scan_is_skew_sign_exactly() {
-        let mut rng = SplitMix(5);
-        let (mut some, mut none) = (0, 0);
-        for case in 0..400 {
-            let mut v = |r: f64| DVec3::new(rng.range(-r, r), rng.range(-r, r), rng.range(-r, r));
-            let p = [v(1.0), v(1.0)];
-            let n = [v(1.0), v(1.0)];
-            let light = v(3.0);
-            let origin = v(2.0);
-            let dir = if case % 10 == 0 {
-                // Along the light's direction: nearly parallel to some refracted rays.
-                (p[0] - light).normalize()
-            } else {
-                v(1.0).normalize()
-            };
-            let eta = if case % 7 == 0 { 0.7 } else { 1.5 };
-            let ends = PathEnds {
-                origin,
-                dir,
-                light,
-                eta,
-            };
-            let scan = scan_edge(p, n, &ends);
-            for (i, got) in scan.iter().enumerate() {
-                let s = i as f64 / LINE_SCAN as f64;
-                let want = skew_sign(p[0] + s * (p[1] - p[0]), n[0] + s * (n[1] - n[0]), &ends);
-                assert_eq!(*got, want, "case {case}, point {i}");
-                if want.is_some() {
-                    some += 1;
-                } else {
-                    none += 1;
-                }
-            }
-        }
-        assert!(some > 1000 && none > 1000, "{some} {none}");
-    }
-
-    /// Test (8), second half: at every edge crossing the lower/upper classification from the
-    /// tangent agrees with brute force — re-solving at t ± dt from the crossing and checking
-    /// which side of the edge the solution moved to — on 40 seeded curved configurations.
-    #[test]
-    fn classification_agrees_with_brute_force() {
-        let mut rng = SplitMix(11);
-        let mut checked = 0;
-        let mut configurations = 0;
-        while configurations < 40 {
-            let n = [0, 1, 2]
-                .map(|_| DVec3::new(rng.range(-0.4, 0.4), rng.range(-0.4, 0.4), 1.0).normalize());
-            let patch = TrianglePatch::new(
-                [
-                    DVec3::new(-0.6, -0.5, 0.0),
-                    DVec3::new(0.7, -0.4, 0.05),
-                    DVec3::new(-0.2, 0.6, -0.03),
-                ],
-                n,
-            )
-            .unwrap();
-            let origin = DVec3::new(
-                rng.range(-1.5, 1.5),
-                rng.range(-1.5, 1.5),
-                rng.range(-1.5, -0.3),
-            );
-            let target = DVec3::new(
-                rng.range(-1.5, 1.5),
-                rng.range(-1.5, 1.5),
-                rng.range(-1.5, -0.3),
-            );
-            let Some(dir) = (target - origin).try_normalize() else {
-                continue;
-            };
-            let ends = PathEnds {
-                origin,
-                dir,
-                light: DVec3::new(
-                    rng.range(-2.0, 2.0),
-                    rng.range(-2.0, 2.0),
-                    rng.range(0.5, 3.0),
-                ),
-                eta: rng.range(1.1, 2.0),
-            };
-            let length = (target - origin).length();
-            configurations += 1;
-            let mut out: SmallList<Crossing, 8> = SmallList::default();
-            let mut stats = RenderStats::default();
-            for edge in Edge::ALL {
-                edge_crossings(
-                    &patch,
-                    &ends,
-                    edge,
-                    &scan_line(&patch, &ends, &edge.line()),
-                    (0.0, length),
-                    1e-13,
-                    &mut out,
-                    &mut stats,
-                );
-            }
-            for c in out.iter() {
-                let dt = 1e-5;
-                let settings = NewtonSettings::new(1e-13, (0.0, length));
-                let inside_after = |t: f64| {
-                    let (zero, _) = newton(
-                        &patch,
-                        &ends,
-                        &Slice::fixed_t(t),
-                        (c.x[1], c.x[2]),
-                        &settings,
-                    );
-                    zero.map(|z| c.edge.inward([0.0, z.x[1] - c.x[1], z.x[2] - c.x[2]]) > 0.0)
-                };
-                let (Some(up), Some(down)) = (inside_after(c.x[0] + dt), inside_after(c.x[0] - dt))
-                else {
-                    continue;
-                };
-                let brute = match (down, up) {
-                    (false, true) => Bound::Lower,
-                    (true, false) => Bound::Upper,
-                    _ => continue, // tangent to the edge: no decision by brute force either
-                };
-                assert_eq!(
-                    brute, c.bound,
-                    "crossing {c:?}, patch {patch:?}, ends {ends:?}"
-                );
-                checked += 1;
-            }
-        }
-        println!("classified {checked} crossings");
-        assert!(checked >= 20, "only {checked} crossings checked");
-    }
-}
+mod tests;

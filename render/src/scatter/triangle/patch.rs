@@ -7,6 +7,7 @@
 use glam::DVec3;
 
 use crate::scatter::geometry::facing_bounds;
+use crate::scatter::triangle::curve::CurvePoint;
 use crate::scatter::triangle::ends::PathEnds;
 
 /// Relative threshold below which a triangle is degenerate: `‖E1×E2‖ < DEGENERATE · max edge²`,
@@ -92,7 +93,7 @@ impl Residual {
     /// physics.md §2.5 item 2). Farther than about η − 1 from the zero, `Ĥ` then depends only on
     /// the direction toward the zero, not on the distance: f is nearly homogeneous of degree 0
     /// about its zero, J nearly singular along that direction, and Newton on f creeps (at
-    /// η = 1 + 1e-6 it did not reach the zero from 1e-3 away in 60 evaluations). g is nearly
+    /// η = 1 + 1e-6 it does not reach the zero from 1e-3 away in 60 evaluations). g is nearly
     /// homogeneous of degree 1 instead, like the straight path it tends to, so Newton on g
     /// converges from as far as at any η. Where `‖h‖` is of order 1 the two differ by a smooth
     /// positive factor.
@@ -116,7 +117,7 @@ impl Residual {
     /// It is oriented like `(N̂s·(J_a×J_b), N̂s·(J_b×J_t), N̂s·(J_t×J_a))`, an orientation that
     /// varies continuously along the curve, so the sign of `g_t` distinguishes the two branches
     /// meeting at a fold. Returns None where J has rank < 2.
-    pub fn tangent(&self) -> Option<[f64; 3]> {
+    pub fn tangent(&self) -> Option<CurvePoint> {
         let rows = [
             DVec3::new(self.jt.x, self.ja.x, self.jb.x),
             DVec3::new(self.jt.y, self.ja.y, self.jb.y),
@@ -138,24 +139,24 @@ impl Residual {
             return None;
         }
         let oriented = self.oriented_tangent();
-        let g = if DVec3::from_array(oriented).dot(g) < 0.0 {
+        let g = if DVec3::from_array(oriented.to_array()).dot(g) < 0.0 {
             -g
         } else {
             g
         };
-        Some(g.to_array())
+        Some(CurvePoint::from_array(g.to_array()))
     }
 
     /// The tangent in the closed form `(N̂s·(J_a×J_b), N̂s·(J_b×J_t), N̂s·(J_t×J_a))`
     /// (physics.md §1.3 corollary). Exact on the curve, where every column of J is ⟂ N̂s;
     /// its first component is proportional to D, with the sign that labels the branch.
-    pub fn oriented_tangent(&self) -> [f64; 3] {
+    pub fn oriented_tangent(&self) -> CurvePoint {
         let n = self.normal_s;
-        [
+        CurvePoint::new(
             n.dot(self.ja.cross(self.jb)),
             n.dot(self.jb.cross(self.jt)),
             n.dot(self.jt.cross(self.ja)),
-        ]
+        )
     }
 }
 
@@ -448,16 +449,19 @@ mod tests {
     #[test]
     fn row_tangent_is_in_the_kernel() {
         let (patch, ends) = curved_patch();
-        let settings = crate::scatter::triangle::solve::NewtonSettings::new(1e-14, (0.0, 0.0));
+        let settings = crate::scatter::triangle::solve::NewtonSettings::new(
+            1e-14,
+            crate::scatter::triangle::ends::DepthRange::new(0.0, 0.0),
+        );
         let (path, _) =
             crate::scatter::triangle::solve::solve_at(&patch, &ends, 0.0, (0.3, 0.3), &settings);
         let path = path.expect("reference path");
         let r = patch.residual(&ends, 0.0, path.a, path.b).unwrap();
-        let g = r.tangent().expect("rank 2");
+        let g = r.tangent().expect("rank 2").to_array();
         let jg = r.apply(g).length();
         let scale = (r.jt.length() + r.ja.length() + r.jb.length()) * DVec3::from_array(g).length();
         assert!(jg / scale < 1e-12, "‖Jg‖ relative {}", jg / scale);
-        let closed = DVec3::from_array(r.oriented_tangent());
+        let closed = DVec3::from_array(r.oriented_tangent().to_array());
         let cos =
             closed.dot(DVec3::from_array(g)) / (closed.length() * DVec3::from_array(g).length());
         assert!(

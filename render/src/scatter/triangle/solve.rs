@@ -12,8 +12,9 @@ use glam::DVec3;
 use spindle_common::stats::RenderStats;
 
 use crate::fresnel;
+use crate::scatter::triangle::curve::CurvePoint;
 use crate::scatter::triangle::distance::distance_factor;
-use crate::scatter::triangle::ends::PathEnds;
+use crate::scatter::triangle::ends::{DepthRange, PathEnds};
 use crate::scatter::triangle::patch::{Residual, TrianglePatch};
 use crate::scatter::triangle::small_list::SmallList;
 
@@ -52,12 +53,12 @@ pub struct NewtonSettings {
     pub max_evaluations: u32,
     /// The range of t the solve may visit; a step is shortened to go at most 3/4 of the way to
     /// a bound it would cross.
-    pub t_range: (f64, f64),
+    pub t_range: DepthRange,
 }
 
 impl NewtonSettings {
     /// Settings for a solve at tolerance `tolerance` with t confined to `t_range`.
-    pub fn new(tolerance: f64, t_range: (f64, f64)) -> Self {
+    pub fn new(tolerance: f64, t_range: DepthRange) -> Self {
         NewtonSettings {
             tolerance,
             max_evaluations: 60,
@@ -89,8 +90,8 @@ impl Slice {
 
     /// The point of parameter space at `(u, v)`.
     #[inline]
-    pub fn at(&self, u: f64, v: f64) -> [f64; 3] {
-        [0, 1, 2].map(|i| self.origin[i] + u * self.du[i] + v * self.dv[i])
+    pub fn at(&self, u: f64, v: f64) -> CurvePoint {
+        CurvePoint::from_array([0, 1, 2].map(|i| self.origin[i] + u * self.du[i] + v * self.dv[i]))
     }
 }
 
@@ -99,8 +100,8 @@ impl Slice {
 pub struct Converged {
     /// The slice coordinates of the zero.
     pub uv: (f64, f64),
-    /// The zero in parameter space, `(t, a, b)`.
-    pub x: [f64; 3],
+    /// The zero in parameter space.
+    pub x: CurvePoint,
     /// f and J there.
     pub residual: Residual,
 }
@@ -110,7 +111,7 @@ pub struct Converged {
 ///
 /// The steps and their acceptance use the scaled residual `g = ‖h‖·f` and its Jacobian
 /// ([`Residual::scaled`]); convergence is still `‖f‖ ≤ tolerance`. On f itself, at η = 1 + 1e-6
-/// the fixed-t solve from a seed 1e-3 away crept and gave up after 60 evaluations; on g it
+/// a fixed-t solve from a seed 1e-3 away creeps and does not converge in 60 evaluations; on g it
 /// converges as at any η, and for η ≥ 1.33 it takes slightly fewer evaluations than on f.
 ///
 /// Damping: the barycentric part of a step is clamped to a bound that starts at 0.5, grows ×1.2
@@ -128,14 +129,14 @@ pub fn newton(
     let mut evaluations = 1;
     let eval = |u: f64, v: f64| {
         let x = slice.at(u, v);
-        if !(x[1] > BARYCENTRIC_ESCAPE.0
-            && x[1] < BARYCENTRIC_ESCAPE.1
-            && x[2] > BARYCENTRIC_ESCAPE.0
-            && x[2] < BARYCENTRIC_ESCAPE.1)
+        if !(x.a > BARYCENTRIC_ESCAPE.0
+            && x.a < BARYCENTRIC_ESCAPE.1
+            && x.b > BARYCENTRIC_ESCAPE.0
+            && x.b < BARYCENTRIC_ESCAPE.1)
         {
             return None;
         }
-        patch.residual(ends, x[0], x[1], x[2]).map(|r| (x, r))
+        patch.residual(ends, x.t, x.a, x.b).map(|r| (x, r))
     };
     let Some((mut x, mut r)) = eval(u, v) else {
         return (None, evaluations);
@@ -198,11 +199,11 @@ pub fn newton(
             } else {
                 1.0
             };
-            let t_next = x[0] + scale * step[0];
-            if t_next > settings.t_range.1 && step[0] > 0.0 {
-                scale = scale.min(0.75 * (settings.t_range.1 - x[0]).max(0.0) / step[0]);
-            } else if t_next < settings.t_range.0 && step[0] < 0.0 {
-                scale = scale.min(0.75 * (settings.t_range.0 - x[0]).min(0.0) / step[0]);
+            let t_next = x.t + scale * step[0];
+            if t_next > settings.t_range.hi && step[0] > 0.0 {
+                scale = scale.min(0.75 * (settings.t_range.hi - x.t).max(0.0) / step[0]);
+            } else if t_next < settings.t_range.lo && step[0] < 0.0 {
+                scale = scale.min(0.75 * (settings.t_range.lo - x.t).min(0.0) / step[0]);
             }
             du *= scale;
             dv *= scale;
@@ -321,7 +322,7 @@ impl RefractionPath {
             cos_l,
             d_factor,
             fresnel_t: 1.0 - fresnel::reflectance(cos_l, ends.eta),
-            branch: r.oriented_tangent()[0],
+            branch: r.oriented_tangent().t,
         })
     }
 }
@@ -347,7 +348,7 @@ pub fn solve_at(
 ) -> (Option<RefractionPath>, u32) {
     let (zero, evaluations) = newton(patch, ends, &Slice::fixed_t(t), guess, settings);
     let path =
-        zero.and_then(|z| RefractionPath::from_zero(patch, ends, t, z.x[1], z.x[2], &z.residual));
+        zero.and_then(|z| RefractionPath::from_zero(patch, ends, t, z.x.a, z.x.b, &z.residual));
     (path, evaluations)
 }
 
@@ -365,7 +366,7 @@ pub fn solve_all_at<const N: usize>(
     tolerance: f64,
     stats: &mut RenderStats,
 ) -> SmallList<RefractionPath, N> {
-    let settings = NewtonSettings::new(tolerance, (t, t));
+    let settings = NewtonSettings::new(tolerance, DepthRange { lo: t, hi: t });
     let mut found: SmallList<RefractionPath, N> = SmallList::default();
     for i in 0..n {
         for j in 0..(n - i) {
@@ -487,9 +488,10 @@ pub fn plane_refraction_guess(
 /// Where the camera line pierces the triangle's plane, and the solution curve's tangent there
 /// (physics.md §2.2). At the piercing point `t_p` the curve passes through `P = V(t_p)`; near it
 /// `V − P` is parallel to the refracted light direction w at that point, so
-/// `dP/dt = r̂ − (r̂·N̂g)/(w·N̂g)·w`. Returns `((t_p, a_p, b_p), (1, da/dt, db/dt))`, or None if the
+/// `dP/dt = r̂ − (r̂·N̂g)/(w·N̂g)·w`. Returns the point `(t_p, a_p, b_p)` and the tangent
+/// `(1, da/dt, db/dt)`, or None if the
 /// line is parallel to the plane or the light is behind the shading normal there.
-pub fn plane_piercing(patch: &TrianglePatch, ends: &PathEnds) -> Option<([f64; 3], [f64; 3])> {
+pub fn plane_piercing(patch: &TrianglePatch, ends: &PathEnds) -> Option<(CurvePoint, CurvePoint)> {
     let r_dot_n = ends.dir.dot(patch.normal_g);
     if r_dot_n.is_nan() || r_dot_n.abs() <= 1e-12 {
         return None;
@@ -508,155 +510,11 @@ pub fn plane_piercing(patch: &TrianglePatch, ends: &PathEnds) -> Option<([f64; 3
         return None;
     }
     let dp_dt = ends.dir - (r_dot_n / w_dot_n) * w;
-    Some(([t_p, a, b], [1.0, dp_dt.dot(patch.g1), dp_dt.dot(patch.g2)]))
+    Some((
+        CurvePoint::new(t_p, a, b),
+        CurvePoint::new(1.0, dp_dt.dot(patch.g1), dp_dt.dot(patch.g2)),
+    ))
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::scatter::triangle::ground_truth::{curved_patch, flat_cases, flat_refraction_point};
-
-    const TIGHT: f64 = 1e-14;
-
-    fn flat_patch(size: f64) -> TrianglePatch {
-        TrianglePatch::new(
-            [
-                DVec3::new(-size, -size, 0.0),
-                DVec3::new(2.0 * size, -size, 0.0),
-                DVec3::new(-size, 2.0 * size, 0.0),
-            ],
-            [DVec3::Z; 3],
-        )
-        .unwrap()
-    }
-
-    /// Test (1): on a flat triangle the Newton refraction point equals the safeguarded
-    /// Newton/bisection root of Snell's law in the plane of incidence (physics.md §5) to 1e-12,
-    /// from the straight-line guess and from a point near it, for the §1.5 configuration and
-    /// 200 seeded random ones. The plane-refraction starting guess (an independent implementation
-    /// of the same §5 root) also lands on it to 1e-12.
-    #[test]
-    fn flat_newton_matches_snell_bisection() {
-        let patch = flat_patch(4.0);
-        let cases = flat_cases(1, 200, 2.0);
-        let mut worst = 0.0f64;
-        for (case, &(v, l, eta)) in cases.iter().enumerate() {
-            let truth = flat_refraction_point(DVec3::ZERO, DVec3::Z, v, l, eta);
-            let ends = PathEnds {
-                origin: v,
-                dir: DVec3::X,
-                light: l,
-                eta,
-            };
-            let settings = NewtonSettings::new(TIGHT, (0.0, 0.0));
-            let straight = straight_line_guess(&patch, &ends, 0.0).unwrap();
-            let plane = plane_refraction_guess(&patch, &ends, 0.0).unwrap();
-            let start = patch.point(plane.0, plane.1);
-            assert!(
-                (start - truth).length() < 1e-12,
-                "case {case}: plane guess {start} vs {truth}"
-            );
-            // Near η = 1 the half vector is short and f's basin of convergence shrinks with η − 1,
-            // so the displaced start (by 0.3 times V's depth) is only used for clearly refracting
-            // cases.
-            let displaced = patch.barycentric(start + 0.3 * v.z.abs() * DVec3::new(0.6, -0.8, 0.0));
-            let guesses = if eta > 1.2 {
-                vec![straight, displaced]
-            } else {
-                vec![straight]
-            };
-            for guess in guesses {
-                let (path, _) = solve_at(&patch, &ends, 0.0, guess, &settings);
-                let path = path
-                    .unwrap_or_else(|| panic!("case {case}: no path for V={v}, L={l}, η={eta}"));
-                let err = (path.p - truth).length();
-                worst = worst.max(err);
-                assert!(
-                    err < 1e-12,
-                    "case {case}: P={} vs {truth} (err {err:e}), V={v}, L={l}, η={eta}",
-                    path.p
-                );
-            }
-        }
-        println!("worst |P - P_snell| = {worst:e}");
-    }
-
-    /// The §1.5 flat-plane reference values: P, d_V, d_L, the cosines and T_P to 1e-12.
-    #[test]
-    fn flat_reference_values() {
-        let patch = flat_patch(4.0);
-        let ends = PathEnds {
-            origin: DVec3::new(0.3, -0.2, -0.8),
-            dir: DVec3::X,
-            light: DVec3::new(1.7, 0.9, 1.3),
-            eta: 1.5,
-        };
-        let settings = NewtonSettings::new(TIGHT, (0.0, 0.0));
-        let guess = straight_line_guess(&patch, &ends, 0.0).unwrap();
-        let path = solve_at(&patch, &ends, 0.0, guess, &settings).0.unwrap();
-        let close = |x: f64, y: f64| (x - y).abs() < 1e-12;
-        assert!((path.p - DVec3::new(0.643387768259381, 0.069804675060942, 0.0)).length() < 1e-12);
-        assert!(close(path.d_v, 0.911432785275413), "d_v {}", path.d_v);
-        assert!(close(path.d_l, 1.869666731215637), "d_l {}", path.d_l);
-        assert!(close(path.cos_v, 0.877738888620579), "cos_v {}", path.cos_v);
-        assert!(close(path.cos_l, 0.695311083144082), "cos_l {}", path.cos_l);
-        assert!(
-            close(path.fresnel_t, 0.948618634715956),
-            "T_P {}",
-            path.fresnel_t
-        );
-        assert!(
-            (path.d_factor / 15.83847645183 - 1.0).abs() < 1e-11,
-            "D {}",
-            path.d_factor
-        );
-    }
-
-    /// The §1.5 curved-triangle reference values: (a, b), d_V, d_L and T_P to 1e-12, D to 1e-11
-    /// relative (the table gives 12 digits).
-    #[test]
-    fn curved_reference_values() {
-        let (patch, ends) = curved_patch();
-        let settings = NewtonSettings::new(TIGHT, (0.0, 0.0));
-        let guess = straight_line_guess(&patch, &ends, 0.0).unwrap();
-        let (path, evaluations) = solve_at(&patch, &ends, 0.0, guess, &settings);
-        let path = path.expect("curved reference path");
-        println!("curved solve: {evaluations} evaluations");
-        let close = |x: f64, y: f64| (x - y).abs() < 1e-12;
-        assert!(
-            close(path.a, 0.376357699627954) && close(path.b, 0.448262971074044),
-            "(a,b) = ({}, {})",
-            path.a,
-            path.b
-        );
-        assert!(close(path.d_v, 0.662327251689634), "d_v {}", path.d_v);
-        assert!(close(path.d_l, 1.734245779563802), "d_l {}", path.d_l);
-        assert!(
-            close(path.fresnel_t, 0.959021342658680),
-            "T_P {}",
-            path.fresnel_t
-        );
-        assert!(
-            (path.d_factor / 10.0582729142 - 1.0).abs() < 1e-10,
-            "D {}",
-            path.d_factor
-        );
-    }
-
-    /// Spurious zeros are rejected: with V and L on the same side the solver may find f = 0
-    /// but no path is returned; a light behind the plane gives no path.
-    #[test]
-    fn no_path_when_light_is_behind() {
-        let patch = flat_patch(4.0);
-        let ends = PathEnds {
-            origin: DVec3::new(0.3, -0.2, -0.8),
-            dir: DVec3::X,
-            light: DVec3::new(1.7, 0.9, -1.3),
-            eta: 1.5,
-        };
-        let settings = NewtonSettings::new(1e-12, (0.0, 0.0));
-        for guess in [(0.1, 0.1), (0.5, 0.2), (0.3, 0.6)] {
-            assert!(solve_at(&patch, &ends, 0.0, guess, &settings).0.is_none());
-        }
-    }
-}
+mod tests;

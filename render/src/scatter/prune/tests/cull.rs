@@ -2,7 +2,7 @@
 
 use glam::DVec3;
 
-use super::{Rng, ValidPath, segment_through, valid_path};
+use super::{Rng, segment_through, valid_path};
 use crate::scatter::geometry::{BoundingSphere, NormalCone};
 use crate::scatter::prune::SegmentQuery;
 use crate::scatter::prune::cone::{ConeTest, Piece, chord_bound};
