@@ -133,6 +133,17 @@ pub fn sig(x: f64) -> String {
     }
 }
 
+/// Writes a scene's JSON into `out/scenes/<name>.json`, so every figure's setup can
+/// be rendered again with `spindle render`.
+pub fn keep_scene(report: &Report, file: &str, scene: &SceneDescription) -> Result<PathBuf> {
+    let dir = report.out().join("scenes");
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let path = dir.join(file);
+    let json = serde_json::to_string_pretty(scene).context("scene JSON")?;
+    std::fs::write(&path, json).with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(path)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -144,15 +155,4 @@ mod tests {
         t.push(vec!["say \"hi\"".into(), "2".into()]);
         assert_eq!(t.csv(), "name,value\n\"a,b\",1\n\"say \"\"hi\"\"\",2\n");
     }
-}
-
-/// Writes a scene's JSON into `out/scenes/<name>.json`, so every figure's setup can
-/// be rendered again with `spindle render`.
-pub fn keep_scene(report: &Report, file: &str, scene: &SceneDescription) -> Result<PathBuf> {
-    let dir = report.out().join("scenes");
-    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let path = dir.join(file);
-    let json = serde_json::to_string_pretty(scene).context("scene JSON")?;
-    std::fs::write(&path, json).with_context(|| format!("cannot write {}", path.display()))?;
-    Ok(path)
 }

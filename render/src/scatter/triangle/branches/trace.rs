@@ -121,7 +121,7 @@ impl Tracer<'_> {
         let near_piercing = plane_piercing(self.patch, self.ends).and_then(|(pierce, tangent)| {
             let dt = t - pierce.t;
             (dt.abs() <= 1e-3 * self.scale)
-                .then(|| (pierce.a + dt * tangent.a, pierce.b + dt * tangent.b))
+                .then_some((pierce.a + dt * tangent.a, pierce.b + dt * tangent.b))
         });
         let settings = NewtonSettings::new(self.tolerance, self.range);
         for start in [guess, near_piercing].into_iter().flatten() {
