@@ -32,7 +32,10 @@ pub fn estimate(
     let k = settings.k.max(1);
     let tolerance = settings.newton_tolerance;
     let ends = connection.ends;
-    let query = connection.query(0.0, length);
+    let query = connection.query(DepthRange {
+        lo: 0.0,
+        hi: length,
+    });
     let mut sum = Rgb::ZERO;
     // Each edge is scanned once for this query and shared by its two triangles.
     let mut scans = EdgeScans::default();
@@ -47,13 +50,15 @@ pub fn estimate(
             let Some(patch) = connection.patch(candidate.triangle) else {
                 return;
             };
-            let range = DepthRange {
-                lo: candidate.t_lo,
-                hi: candidate.t_hi,
-            };
             let edge_scan = |edge| scans.scan(mesh, candidate.triangle, edge, &ends);
-            let intervals =
-                triangle_intervals_with(&patch, &ends, range, tolerance, edge_scan, stats);
+            let intervals = triangle_intervals_with(
+                &patch,
+                &ends,
+                candidate.range,
+                tolerance,
+                edge_scan,
+                stats,
+            );
             for interval in intervals.iter() {
                 let u = if settings.jitter {
                     sampler.next_f64()

@@ -24,11 +24,11 @@ use crate::scatter::triangle::ends::DepthRange;
 use crate::scatter::triangle::patch::TrianglePatch;
 
 impl Connection<'_> {
-    /// The pruning query of the camera points `V(t)`, `t ∈ [t_lo, t_hi]`, and this light point.
-    pub fn query(&self, t_lo: f64, t_hi: f64) -> SegmentQuery {
+    /// The pruning query of the camera points `V(t)`, `t ∈ range`, and this light point.
+    pub fn query(&self, range: DepthRange) -> SegmentQuery {
         SegmentQuery {
             ends: self.ends,
-            range: DepthRange { lo: t_lo, hi: t_hi },
+            range,
         }
     }
 

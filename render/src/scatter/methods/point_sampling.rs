@@ -42,7 +42,7 @@ pub fn estimate(
     let mut sum = Rgb::ZERO;
     for j in 0..m {
         let t = (j as f64 + sampler.next_f64()) / m as f64 * length;
-        let query = connection.query(t, t);
+        let query = connection.query(DepthRange { lo: t, hi: t });
         for_each_candidate(
             connection.object,
             &query,

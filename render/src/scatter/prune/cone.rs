@@ -14,6 +14,7 @@ use glam::DVec3;
 
 use crate::scatter::geometry::{BoundingSphere, NormalCone};
 use crate::scatter::prune::SegmentQuery;
+use crate::scatter::triangle::ends::DepthRange;
 
 /// Subdivision depth of the cone test in `t` (at most `2^depth` pieces are examined per end).
 const CONE_DEPTH: u32 = 6;
@@ -27,8 +28,8 @@ const FINE_SWEEP: f64 = 0.2;
 impl SegmentQuery {
     /// The cone test ([H15] §3.2.4, "shading-normal based test", App. B.2) for one triangle, given
     /// its bounding sphere and normal cone: `None` if no `t` of the range can have a solution on
-    /// the triangle, else the trimmed `[t_lo, t_hi]` that holds every solution.
-    pub fn cone_trim(&self, sphere: BoundingSphere, normals: NormalCone) -> Option<(f64, f64)> {
+    /// the triangle, else the trimmed range that holds every solution.
+    pub fn cone_trim(&self, sphere: BoundingSphere, normals: NormalCone) -> Option<DepthRange> {
         let test = ConeTest::new(self, sphere, normals);
         // The whole range's verdict starts both searches (tested once).
         let whole = test.piece(self.range.lo, self.range.hi);
@@ -36,7 +37,10 @@ impl SegmentQuery {
         let last = test
             .first_kept_given(self.range.lo, self.range.hi, CONE_DEPTH, false, whole)
             .unwrap_or(first);
-        Some((first.0, last.1))
+        Some(DepthRange {
+            lo: first.0,
+            hi: last.1,
+        })
     }
 
     /// The cone test without the trimming: `false` only if no `t` of the range can have a

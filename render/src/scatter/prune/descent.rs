@@ -19,20 +19,19 @@ use crate::scatter::prune::SegmentQuery;
 use crate::scatter::triangle::ends::DepthRange;
 use crate::scene::Object;
 
-/// A triangle of the object that may hold refraction points, and the `t`-range to search on it:
-/// the query's, cut by the triangle's plane.
+/// A triangle of the object that may hold refraction points, and the depths to search on it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Candidate {
     /// Index of the triangle in the object's mesh.
     pub triangle: u32,
-    pub t_lo: f64,
-    pub t_hi: f64,
+    /// The query's range, cut by the triangle's plane.
+    pub range: DepthRange,
 }
 
-/// Reusable traversal stack of `(node, t_lo, t_hi)` (one per `single_scatter` call, so the hot
-/// loop does not allocate).
+/// Reusable traversal stack of `(node, range)` (one per `single_scatter` call, so the hot loop
+/// does not allocate).
 #[derive(Debug, Default)]
-pub struct DescentStack(Vec<(u32, f64, f64)>);
+pub struct DescentStack(Vec<(u32, DepthRange)>);
 
 /// Calls `visit` for every candidate triangle of `object` for the query (segment range and light
 /// point), with the pruning stages `pruning` enabled.
@@ -50,10 +49,10 @@ pub fn for_each_candidate(
     let mesh = &object.mesh;
     let stack = &mut stack.0;
     stack.clear();
-    stack.push((0, query.range.lo, query.range.hi));
-    while let Some((node, t_lo, t_hi)) = stack.pop() {
+    stack.push((0, query.range));
+    while let Some((node, range)) = stack.pop() {
         stats.bvh_nodes_visited += 1;
-        let mut node_query = query.with_range(DepthRange { lo: t_lo, hi: t_hi });
+        let mut node_query = query.with_range(range);
         let bounds = object.bounds.node(node);
         if pruning.spindle && !node_query.spindle_may_contain(bounds.sphere) {
             stats.nodes_culled_spindle += 1;
@@ -70,10 +69,10 @@ pub fn for_each_candidate(
                 Some(_) => node_query.cone_trim(bounds.sphere, cone),
                 None => node_query
                     .cone_may_contain(bounds.sphere, cone)
-                    .then_some((node_query.range.lo, node_query.range.hi)),
+                    .then_some(node_query.range),
             };
             match kept {
-                Some((lo, hi)) => node_query = node_query.with_range(DepthRange { lo, hi }),
+                Some(range) => node_query = node_query.with_range(range),
                 None => {
                     stats.nodes_culled_cone += 1;
                     continue;
@@ -81,8 +80,8 @@ pub fn for_each_candidate(
             }
         }
         if let Some([left, right]) = children {
-            stack.push((right, node_query.range.lo, node_query.range.hi));
-            stack.push((left, node_query.range.lo, node_query.range.hi));
+            stack.push((right, node_query.range));
+            stack.push((left, node_query.range));
             continue;
         }
         for (slot, triangle) in object.bvh.leaf_slots(node) {
@@ -137,8 +136,10 @@ pub fn for_each_candidate(
             visit(
                 Candidate {
                     triangle,
-                    t_lo: search.0,
-                    t_hi: search.1,
+                    range: DepthRange {
+                        lo: search.0,
+                        hi: search.1,
+                    },
                 },
                 stats,
             );

@@ -38,7 +38,7 @@ fn pruning_never_discards_a_valid_path() {
         );
         if let Some(cone) = NormalCone::of_normals(path.n) {
             let trimmed = query.cone_trim(sphere, cone);
-            let Some((t0, t1)) = trimmed else {
+            let Some(DepthRange { lo: t0, hi: t1 }) = trimmed else {
                 panic!("cone test culled a valid path: {query:?} t={t_v} {sphere:?} {cone:?}");
             };
             assert!(

@@ -105,7 +105,7 @@ fn descent_keeps_every_triangle_with_a_valid_path() {
             &mut stats,
             |c, _| {
                 if c.triangle as usize == triangle {
-                    assert!(c.t_lo <= t_v && t_v <= c.t_hi, "{c:?} misses t = {t_v}");
+                    assert!(c.range.contains(t_v), "{c:?} misses t = {t_v}");
                     found = true;
                 }
             },
@@ -158,7 +158,7 @@ fn descent_without_pruning_yields_every_triangle() {
         &mut DescentStack::default(),
         &mut stats,
         |c, _| {
-            assert_eq!((c.t_lo, c.t_hi), (0.0, 1.0));
+            assert_eq!((c.range.lo, c.range.hi), (0.0, 1.0));
             seen[c.triangle as usize] += 1;
         },
     );
