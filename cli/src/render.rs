@@ -18,6 +18,7 @@ use spindle_common::image::Image;
 use spindle_common::protocol::DEFAULT_TILE_SIZE;
 use spindle_common::scene::SceneDescription;
 use spindle_common::stats::RenderStats;
+use spindle_common::tile::LAYER_NAMES;
 use spindle_common::tile::TileRect;
 use spindle_render::scatter::describe_plan;
 use spindle_render::{Scene, render_pixel};
@@ -158,7 +159,7 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
         per_worker.join("+"),
     );
     println!("preview {}", preview.display());
-    print_stats(args, &stats);
+    print_stats(args, &stats, &image);
     Ok(())
 }
 
@@ -283,7 +284,7 @@ fn in_process(args: &RenderArgs) -> Result<()> {
         built.as_secs_f64(),
     );
     println!("preview {}", preview.display());
-    print_stats(args, &stats);
+    print_stats(args, &stats, &image);
     Ok(())
 }
 
@@ -324,10 +325,15 @@ fn write_outputs(image: &Image, output: &Path) -> Result<PathBuf> {
     Ok(preview)
 }
 
-fn print_stats(args: &RenderArgs, stats: &RenderStats) {
+/// With `--stats`: the counters, then the mean of each layer over the pixels and channels.
+fn print_stats(args: &RenderArgs, stats: &RenderStats, image: &Image) {
     if args.stats {
         for (name, value) in stats.entries() {
             println!("  {name:<24} {value}");
+        }
+        for (name, layer) in LAYER_NAMES.iter().zip(image.layers()) {
+            let mean = layer.iter().map(|&v| f64::from(v)).sum::<f64>() / layer.len().max(1) as f64;
+            println!("  mean {name:<19} {mean:.6e}");
         }
     }
 }

@@ -40,11 +40,13 @@ pub struct Connection<'a> {
 impl Connection<'_> {
     /// The radiance per unit length of the segment that the solved path `path` on the object's
     /// triangle `triangle` sends toward the camera at `V(path.t)` (physics.md eq. 2, with the
-    /// η² of eq. 1 and without `T(V_min)`, see `contribution`), or zero if it is blocked.
+    /// η² of eq. 1 and without `T(V_min)`, see `contribution`), times the sample weight
+    /// `e^{ln_weight}`, or zero if it is blocked.
     pub fn path_radiance(
         &self,
         triangle: u32,
         path: &RefractionPath,
+        ln_weight: f64,
         stats: &mut RenderStats,
     ) -> Rgb {
         let intensity = self.light.intensity_toward(path.p);
@@ -58,7 +60,7 @@ impl Connection<'_> {
         if !self.inside_reaches(triangle, v, path.p, stats) {
             return Rgb::ZERO;
         }
-        path_contribution(path, &self.ends, &self.medium, intensity)
+        path_contribution(path, &self.ends, &self.medium, intensity, ln_weight)
     }
 
     /// The shadow ray from `p` on the object's triangle `triangle`, leaving in direction

@@ -1,10 +1,12 @@
 //! The interval method of [H15] §3.2 for one camera segment and one light point: the pruned
 //! descent gives candidate triangles with trimmed `t`-ranges; on each, the per-triangle depth
 //! intervals (one per monotone branch of the solution curve, folds split; see `branches`) are
-//! sampled with `K = k` points each — the midpoint rule `t_i = t_min + (i + ½)(t_max − t_min)/K`
-//! ([H15] eqs. 18–19), or, with `jitter`, `t_i = t_min + (i + u_i)(t_max − t_min)/K` where
-//! `u_i = frac(u + i·φ)` for one uniform `u` per interval and the golden ratio φ: every `u_i` is
-//! uniform on [0, 1), so each sample is uniform in its stratum and the estimate is unbiased.
+//! sampled with `K = k` points each. [H15] eqs. 18–19 place them uniformly (the midpoint rule);
+//! here they are placed at the quantiles `(i + u_i)/K` of a density that follows the paths'
+//! attenuation (`depth_density`), so that dense media are right with K = 1: `u_i = ½` without
+//! `jitter` (deterministic), or `u_i = frac(u + i·φ)` with one uniform `u` per interval and the
+//! golden ratio φ: every `u_i` is uniform on [0, 1), so each sample follows the density within
+//! its stratum and the estimate is unbiased.
 
 use spindle_common::scene::SingleScatter;
 use spindle_common::stats::RenderStats;
@@ -75,6 +77,7 @@ pub fn estimate(
                             0.5
                         }
                     },
+                    sigma_t: connection.medium.sigma_t,
                 };
                 // Visibility rays are counted apart: `for_each_sample` holds `stats`.
                 let mut visibility = RenderStats::default();
@@ -85,9 +88,13 @@ pub fn estimate(
                     &rule,
                     tolerance,
                     stats,
-                    |path, weight| {
-                        sum += weight
-                            * connection.path_radiance(candidate.triangle, path, &mut visibility);
+                    |path, ln_weight| {
+                        sum += connection.path_radiance(
+                            candidate.triangle,
+                            path,
+                            ln_weight,
+                            &mut visibility,
+                        );
                     },
                 );
                 stats.add(&visibility);

@@ -1,8 +1,10 @@
 //! Point sampling ([WZHB09]; physics.md §1.1, "point sampling"): `M = samples_per_segment`
-//! stratified, jittered camera points `t_j` along the segment; at each, every refraction path
-//! through every candidate triangle of the pruned descent (a fixed-`t` Newton solve per triangle
-//! from the straight-line starting guess); the estimate is `(ℓ/M) Σ_j Σ_k C_k(t_j)`, i.e.
-//! `q(t) = 1/ℓ`.
+//! stratified, jittered camera points `t_j` along the segment, drawn with the density
+//! `q(t) ∝ e^{−σ_t t}` of the camera side's attenuation (`depth_density` with `ℓ = t`; uniform for
+//! σ_t = 0; one density per group of channels with distinct σ_t, combined by the balance
+//! heuristic); at each, every refraction path through every candidate triangle of the pruned
+//! descent (a fixed-`t` Newton solve per triangle from the straight-line starting guess); the
+//! estimate is `(1/M) Σ_j Σ_k C_k(t_j)/q(t_j)`.
 //!
 //! Each candidate triangle is solved from the straight-line guess, and from the centroid where
 //! that finds no valid path (the straight-line guess alone missed 27 of 512 solutions on a glass
@@ -17,6 +19,7 @@ use crate::Rgb;
 use crate::sampler::Sampler;
 use crate::scatter::methods::connect::Connection;
 use crate::scatter::prune::descent::{DescentStack, for_each_candidate};
+use crate::scatter::triangle::depth_density::{DepthDensity, DepthSample, PathLengths};
 use crate::scatter::triangle::ends::DepthRange;
 use crate::scatter::triangle::solve::{
     NewtonSettings, RefractionPath, Slice, newton, straight_line_guess,
@@ -40,8 +43,13 @@ pub fn estimate(
         },
     );
     let mut sum = Rgb::ZERO;
-    for j in 0..m {
-        let t = (j as f64 + sampler.next_f64()) / m as f64 * length;
+    let camera_side = PathLengths::new([(0.0, 0.0), (length, length)]);
+    let Some(density) = DepthDensity::new(camera_side, connection.medium.sigma_t) else {
+        return Rgb::ZERO;
+    };
+    let mut points = Vec::with_capacity(m as usize);
+    density.for_each(m, |_| sampler.next_f64(), |sample| points.push(sample));
+    for DepthSample { t, ln_weight } in points {
         let query = connection.query(DepthRange { lo: t, hi: t });
         for_each_candidate(
             connection.object,
@@ -70,12 +78,13 @@ pub fn estimate(
                         RefractionPath::from_zero(&patch, ends, t, a, b, &zero.residual)
                     {
                         stats.samples += 1;
-                        sum += connection.path_radiance(candidate.triangle, &path, stats);
+                        sum +=
+                            connection.path_radiance(candidate.triangle, &path, ln_weight, stats);
                         break;
                     }
                 }
             },
         );
     }
-    sum * (length / f64::from(m))
+    sum
 }

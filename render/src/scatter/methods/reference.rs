@@ -95,7 +95,7 @@ pub fn estimate(
                 stats.samples += 1;
                 found[count] = (a, b);
                 count += 1;
-                sum += connection.path_radiance(triangle, &path, stats);
+                sum += connection.path_radiance(triangle, &path, 0.0, stats);
             }
         }
     }

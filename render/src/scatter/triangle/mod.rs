@@ -9,6 +9,7 @@
 pub mod branches;
 pub mod contribution;
 pub mod curve;
+pub mod depth_density;
 pub mod distance;
 pub mod edge;
 pub mod ends;

@@ -37,8 +37,8 @@ fn interval_contribution(
         &rule,
         tolerance,
         stats,
-        |path, weight| {
-            total += weight * path_contribution(path, ends, medium, DVec3::ONE);
+        |path, ln_weight| {
+            total += path_contribution(path, ends, medium, DVec3::ONE, ln_weight);
         },
     );
     total
@@ -269,16 +269,17 @@ fn folds_are_split_and_every_branch_is_integrated() {
                 let rule = SampleRule {
                     k: 1,
                     offset: |_| (t - iv.t_min) / (iv.t_max - iv.t_min),
+                    sigma_t: DVec3::ZERO,
                 };
                 for_each_sample(&patch, &ends, iv, &rule, 1e-13, &mut stats, |path, _| {
                     count += 1;
-                    sum += path_contribution(path, &ends, &medium, DVec3::ONE).x;
+                    sum += path_contribution(path, &ends, &medium, DVec3::ONE, 0.0).x;
                 });
             }
             let brute = all_solutions(&patch, &ends, t);
             let brute_sum: f64 = brute
                 .iter()
-                .map(|p| path_contribution(p, &ends, &medium, DVec3::ONE).x)
+                .map(|p| path_contribution(p, &ends, &medium, DVec3::ONE, 0.0).x)
                 .sum();
             if count != brute.len() {
                 mismatches += 1;
@@ -307,8 +308,8 @@ fn folds_are_split_and_every_branch_is_integrated() {
                 &rule,
                 1e-13,
                 &mut stats,
-                |path, weight| {
-                    fine += weight * path_contribution(path, &ends, &medium, DVec3::ONE).x;
+                |path, ln_weight| {
+                    fine += path_contribution(path, &ends, &medium, DVec3::ONE, ln_weight).x;
                 },
             );
         }
