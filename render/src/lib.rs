@@ -9,6 +9,7 @@
 
 pub mod bvh;
 pub mod camera;
+pub mod containment;
 pub mod frame;
 pub mod fresnel;
 pub mod light;

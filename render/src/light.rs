@@ -83,6 +83,14 @@ fn position(field: &'static str, v: [f64; 3]) -> Result<DVec3, LightError> {
 }
 
 impl Light {
+    /// The light's position (a sphere light's centre).
+    pub fn center(&self) -> DVec3 {
+        match *self {
+            Light::Point { position, .. } => position,
+            Light::Sphere { center, .. } => center,
+        }
+    }
+
     pub fn new(light: &desc::Light) -> Result<Light, LightError> {
         Ok(match *light {
             desc::Light::Point {

@@ -17,6 +17,7 @@ use spindle_common::validate::SceneError;
 use crate::Rgb;
 use crate::bvh::Bvh;
 use crate::camera::Camera;
+use crate::containment;
 use crate::light::Light;
 use crate::medium::Medium;
 use crate::mesh::{MeshReport, TriangleMesh};
@@ -106,6 +107,10 @@ pub struct Scene {
     background: Rgb,
     integrator: desc::Integrator,
     scale: f64,
+    /// The dielectric object whose medium holds the camera, if any.
+    camera_medium: Option<usize>,
+    /// Per light, the dielectric object whose medium holds it, if any.
+    light_media: Vec<Option<usize>>,
     warnings: Vec<String>,
 }
 
@@ -195,6 +200,14 @@ impl Scene {
             1.0
         };
 
+        let camera_medium = medium_at(&objects, "the camera", camera.position(), &mut warnings);
+        let mut light_media = Vec::with_capacity(lights.len());
+        for (j, light) in lights.iter().enumerate() {
+            check_straddle(&objects, j, light)?;
+            let what = format!("lights[{j}]");
+            light_media.push(medium_at(&objects, &what, light.center(), &mut warnings));
+        }
+
         Ok(Scene {
             objects,
             bvh,
@@ -205,6 +218,8 @@ impl Scene {
             background,
             integrator,
             scale,
+            camera_medium,
+            light_media,
             warnings,
         })
     }
@@ -230,6 +245,17 @@ impl Scene {
 
     pub fn camera(&self) -> &Camera {
         &self.camera
+    }
+
+    /// The dielectric object whose medium holds the camera (camera paths start in it), if any.
+    pub fn camera_medium(&self) -> Option<usize> {
+        self.camera_medium
+    }
+
+    /// The dielectric object whose medium holds light `light` (it lights that medium along
+    /// straight paths, with no interface), if any.
+    pub fn light_medium(&self, light: usize) -> Option<usize> {
+        self.light_media[light]
     }
 
     pub fn film(&self) -> &desc::Film {
@@ -392,3 +418,65 @@ fn build_object(
 
 #[cfg(test)]
 mod tests;
+
+/// The dielectric object whose medium holds `p` (`containment::holds`: inside or on its
+/// surface), if any. Media do not nest: inside several, the smallest (by bounding box)
+/// is taken and a warning says so.
+fn medium_at(
+    objects: &[Object],
+    what: &str,
+    p: DVec3,
+    warnings: &mut Vec<String>,
+) -> Option<usize> {
+    let holding: Vec<usize> = objects
+        .iter()
+        .enumerate()
+        .filter(|(_, o)| matches!(o.material, Material::Dielectric(_)))
+        .filter(|(_, o)| containment::holds(&o.mesh, p))
+        .map(|(i, _)| i)
+        .collect();
+    let volume = |i: &usize| {
+        let (lo, hi) = objects[*i].mesh.bounds();
+        (hi - lo).element_product()
+    };
+    let innermost = holding
+        .iter()
+        .copied()
+        .min_by(|a, b| volume(a).total_cmp(&volume(b)))?;
+    if holding.len() > 1 {
+        let names: Vec<&str> = holding.iter().map(|&i| objects[i].name.as_str()).collect();
+        warnings.push(format!(
+            "{what} is inside nested media ({}): media do not nest, so it is taken to be in {} \
+             with air around it",
+            names.join(", "),
+            objects[innermost].name
+        ));
+    }
+    Some(innermost)
+}
+
+/// A sphere light must lie wholly inside or wholly outside each medium: one that crosses a
+/// dielectric surface is refused, naming both.
+fn check_straddle(objects: &[Object], j: usize, light: &Light) -> Result<(), SceneError> {
+    let Light::Sphere { center, radius, .. } = *light else {
+        return Ok(());
+    };
+    for o in objects {
+        if !matches!(o.material, Material::Dielectric(_)) {
+            continue;
+        }
+        let (lo, hi) = o.mesh.bounds();
+        let near_box = center.clamp(lo, hi).distance(center) < radius;
+        if near_box && containment::distance_to_mesh(&o.mesh, center) < radius {
+            return Err(SceneError::new(
+                format!("lights[{j}]"),
+                format!(
+                    "the sphere light (centre {center}, radius {radius}) crosses the surface of \
+                     {}: a light must lie wholly inside or wholly outside each medium",
+                    o.name
+                ),
+            ));
+        }
+    }
+    Ok(())
+}

@@ -16,9 +16,12 @@
 //! layer. Everything else (lights seen directly, reflected or transmitted, lit diffuse surfaces,
 //! background) is the `surface` layer.
 //!
+//! A camera inside a dielectric object starts its paths in that object's medium (throughput 1:
+//! the camera measures the radiance inside; leaving the medium multiplies it by `(1 − F)·η²`).
+//! A sphere light inside a medium is seen through it, attenuated.
+//!
 //! Dielectric objects block shadow rays: a diffuse floor under a glass sphere gets no light
-//! through the glass (caustics are not rendered). Objects must not overlap; lights are outside
-//! every medium.
+//! through the glass (caustics are not rendered). Objects must not overlap (media do not nest).
 
 use glam::DVec3;
 use spindle_common::stats::RenderStats;
@@ -77,7 +80,7 @@ pub fn radiance(
 ) -> Radiance {
     let mut out = Radiance::default();
     let state = PathState {
-        inside: None,
+        inside: scene.camera_medium(),
         depth: 0,
         internal: 0,
         throughput: Rgb::ONE,
@@ -116,7 +119,8 @@ fn trace(
         }
         Some(object) => {
             // In a medium: one camera segment up to the boundary (or, if the ray escapes an
-            // open or leaking mesh, up to where it leaves the object's bounds).
+            // open or leaking mesh, up to where it leaves the object's bounds), or up to a light
+            // inside this medium, seen through the medium.
             let length = match hit {
                 Some(h) => h.t,
                 None => exit_distance(scene, object, &ray),
@@ -124,6 +128,26 @@ fn trace(
             let Material::Dielectric(dielectric) = scene.objects()[object].material else {
                 return;
             };
+            let light = (0..scene.lights().len())
+                .filter(|&j| scene.light_medium(j) == Some(object))
+                .filter_map(|j| scene.lights()[j].intersect(&ray))
+                .filter(|&(t, _)| t < length)
+                .min_by(|a, b| a.0.total_cmp(&b.0));
+            if let Some((t_light, emitted)) = light {
+                let segment = Segment {
+                    origin: ray.origin,
+                    dir: ray.dir,
+                    length: t_light,
+                    object,
+                    throughput: state.throughput,
+                };
+                stats.camera_segments += 1;
+                let scattered = scatter::single_scatter(scene, &segment, sampler, stats);
+                out.single_scatter += state.throughput * scattered;
+                let seen = dielectric.medium.transmittance(t_light) * emitted;
+                out.surface += state.throughput * seen;
+                return;
+            }
             let segment = Segment {
                 origin: ray.origin,
                 dir: ray.dir,

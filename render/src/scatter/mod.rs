@@ -10,8 +10,12 @@
 //! Three wings: [`triangle`], the per-triangle mathematics in f64, independent of the scene;
 //! [`prune`], the conservative culling of triangles and BVH nodes; [`methods`], the estimators.
 //!
+//! A light inside the segment's own medium needs no refraction at all (`methods::in_medium`,
+//! whatever the plan); one inside another medium would need two interfaces and gives nothing
+//! (said by the plan).
+//!
 //! Sign conventions, stated once for all of these modules: η = n_medium / n_outside > 1 (the
-//! medium is denser); the light is outside; the shading normal points outward, toward the light;
+//! medium is denser); the light is outside (but for `in_medium`); the shading normal points outward, toward the light;
 //! the camera segment is `V(t) = origin + t·dir` with `dir` a unit vector, so t is a distance.
 
 pub mod geometry;
@@ -59,9 +63,12 @@ pub fn single_scatter(
     let settings = &scene.integrator().single_scatter;
     let mut stack = DescentStack::default();
     let mut total = Rgb::ZERO;
-    for light in scene.lights() {
+    for (j, light) in scene.lights().iter().enumerate() {
         let light = sample_light(light, bounds, sampler.next_2d());
-        if light.is_black() {
+        let light_medium = scene.light_medium(j);
+        // A light in another medium would reach this one through two interfaces: not modelled
+        // (the plan says so for every such light and object).
+        if light.is_black() || light_medium.is_some_and(|o| o != segment.object) {
             continue;
         }
         let connection = Connection {
@@ -78,6 +85,10 @@ pub fn single_scatter(
             light,
         };
         let length = segment.length;
+        if light_medium == Some(segment.object) {
+            total += methods::in_medium::estimate(&connection, length, settings, sampler, stats);
+            continue;
+        }
         total += match plan.model {
             Model::Skip => Rgb::ZERO,
             Model::Interval => methods::interval::estimate(

@@ -7,10 +7,13 @@
 //! * [`point_sampling`] — [WZHB09]: M stratified points, every solution at each;
 //! * [`straight_line`] — [H15] App. B.3: no refraction, light crosses the boundary in a straight
 //!   line (exact for η = 1);
-//! * [`reference`] — brute force for tests: no pruning, many Newton starts per triangle.
+//! * [`reference`] — brute force for tests: no pruning, many Newton starts per triangle;
+//! * [`in_medium`] — a light inside the segment's own medium: the straight connection with no
+//!   interface at all.
 
 pub mod connect;
 pub mod edge_scans;
+pub mod in_medium;
 pub mod interval;
 pub mod point_sampling;
 pub mod reference;
@@ -20,7 +23,7 @@ use glam::DVec3;
 
 use crate::scatter::methods::connect::Connection;
 use crate::scatter::prune::SegmentQuery;
-use crate::scatter::triangle::ends::DepthRange;
+use crate::scatter::triangle::ends::{DepthRange, PathEnds};
 use crate::scatter::triangle::patch::TrianglePatch;
 
 impl Connection<'_> {
@@ -50,4 +53,45 @@ pub(crate) const CENTROID: (f64, f64) = (1.0 / 3.0, 1.0 / 3.0);
 /// solution, not a heuristic.
 pub(crate) fn plane_sides_allow(patch: &TrianglePatch, v: DVec3, light: DVec3) -> bool {
     patch.plane_distance(v) < 0.0 && patch.plane_distance(light) > 0.0
+}
+
+/// Equiangular sampling of the camera points of a segment about the light point (the
+/// substitution `t = x0 + h tan u` of physics.md §4): the density `q(t) = h/((u1 − u0) d²)`
+/// cancels the `1/d²` of a light seen along a straight line. Uniform in t when the light lies on
+/// the segment's line.
+pub(crate) struct Equiangular {
+    /// Foot of the perpendicular from the light, along the segment.
+    x0: f64,
+    /// Distance from the light to the segment's line.
+    h: f64,
+    /// The angle range `[u0, u1]`, or `None` for the uniform fallback.
+    angles: Option<(f64, f64)>,
+    length: f64,
+}
+
+impl Equiangular {
+    pub(crate) fn new(ends: &PathEnds, length: f64) -> Self {
+        let x0 = (ends.light - ends.origin).dot(ends.dir);
+        let h = (ends.light - ends.origin - x0 * ends.dir).length();
+        let usable = h > 1e-9 * (length + x0.abs()) && length > 0.0;
+        Equiangular {
+            x0,
+            h,
+            angles: usable.then(|| ((-x0).atan2(h), (length - x0).atan2(h))),
+            length,
+        }
+    }
+
+    /// The camera point at the quantile `xi ∈ [0, 1)` and its weight `1/q(t)`.
+    pub(crate) fn sample(&self, xi: f64) -> (f64, f64) {
+        match self.angles {
+            Some((u0, u1)) => {
+                let u = u0 + xi * (u1 - u0);
+                let t = (self.x0 + self.h * u.tan()).clamp(0.0, self.length);
+                let d2 = self.h * self.h + (t - self.x0) * (t - self.x0);
+                (t, (u1 - u0) * d2 / self.h)
+            }
+            None => (xi * self.length, self.length),
+        }
+    }
 }

@@ -23,6 +23,7 @@ use crate::Rgb;
 use crate::fresnel::reflectance;
 use crate::ray::Ray;
 use crate::sampler::Sampler;
+use crate::scatter::methods::Equiangular;
 use crate::scatter::methods::connect::Connection;
 
 /// The straight-line estimate of the segment `[0, length]` lit by the connection's light point.
@@ -34,25 +35,11 @@ pub fn estimate(
     stats: &mut RenderStats,
 ) -> Rgb {
     let m = settings.samples_per_segment.max(1);
-    let ends = connection.ends;
-    let light = connection.light.position();
-    // Equiangular parameters: foot of the perpendicular from L, and its distance h.
-    let x0 = (light - ends.origin).dot(ends.dir);
-    let h = (light - ends.origin - x0 * ends.dir).length();
-    let equiangular = h > 1e-9 * (length + x0.abs()) && length > 0.0;
-    let (u0, u1) = ((-x0).atan2(h), (length - x0).atan2(h));
+    let equiangular = Equiangular::new(&connection.ends, length);
     let mut sum = Rgb::ZERO;
     for j in 0..m {
         let xi = (j as f64 + sampler.next_f64()) / f64::from(m);
-        let (t, weight) = if equiangular {
-            let u = u0 + xi * (u1 - u0);
-            let t = (x0 + h * u.tan()).clamp(0.0, length);
-            let d2 = h * h + (t - x0) * (t - x0);
-            // 1/q(t) with q(t) = h / ((u1 − u0) d²).
-            (t, (u1 - u0) * d2 / h)
-        } else {
-            (xi * length, length)
-        };
+        let (t, weight) = equiangular.sample(xi);
         sum += weight * point_radiance(connection, t, stats);
     }
     sum / f64::from(m)

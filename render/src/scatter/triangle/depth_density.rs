@@ -222,6 +222,11 @@ impl DepthDensity {
         Some(DepthDensity { profile, groups })
     }
 
+    /// The interpolated path length `ℓ̃(t)` the densities follow.
+    pub fn path_length(&self, t: f64) -> f64 {
+        self.profile.at(t)
+    }
+
     /// The densest group's σ, for refining the profile where the mass is.
     pub fn densest(&self) -> f64 {
         self.groups

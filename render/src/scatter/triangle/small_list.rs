@@ -46,6 +46,11 @@ impl<T: Copy, const N: usize> SmallList<T, N> {
     }
 
     /// The values in insertion order.
+    pub fn iter_mut(&mut self) -> impl Iterator<Item = &mut T> {
+        self.items.iter_mut()
+    }
+
+    /// The values in order.
     pub fn iter(&self) -> impl Iterator<Item = &T> {
         self.items.iter()
     }

@@ -6,6 +6,7 @@ use spindle_common::stats::RenderStats;
 use super::trace::{Arc, Corrected, MAX_TRACE, Node, Tracer};
 use super::{Interval, Intervals, MAX_SEEDS};
 use crate::scatter::triangle::curve::{CurvePoint, Sign};
+use crate::scatter::triangle::ends::DepthRange;
 use crate::scatter::triangle::small_list::SmallList;
 
 /// Points per monotone branch: an arc's points and the fold points at both of its ends.
@@ -142,6 +143,7 @@ impl Tracer<'_> {
         let interval = Interval {
             t_min,
             t_max,
+            reach: DepthRange::new(t_min, t_max),
             branch,
             seeds,
             seed_count,

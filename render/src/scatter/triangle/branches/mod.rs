@@ -39,11 +39,12 @@ mod trace;
 #[cfg(test)]
 mod tests;
 
-pub use plane_range::plane_t_range;
+pub use plane_range::{plane_depth, plane_t_range};
 pub use sample::{SampleRule, for_each_sample};
 pub use search::{SEARCH_TOLERANCE, triangle_intervals, triangle_intervals_with};
 
 use crate::scatter::triangle::curve::{CurvePoint, Sign};
+use crate::scatter::triangle::ends::DepthRange;
 use crate::scatter::triangle::small_list::SmallList;
 
 /// At most this many monotone branches per triangle (more are dropped, and counted in
@@ -63,6 +64,11 @@ pub struct Interval {
     pub t_min: f64,
     /// Upper end of the branch in t.
     pub t_max: f64,
+    /// The depths its samples cover: `[t_min, t_max]`, widened at an end that lies on the
+    /// triangle's plane over the thin layer [`plane_t_range`] leaves out there (where f is
+    /// singular); samples in that layer use the path at the end. In a dense medium that layer,
+    /// just under the surface, is where most of the light scatters.
+    pub reach: DepthRange,
     /// The sign of `N̂s·(J_a×J_b)` on the branch: it labels the branch (it flips at a fold).
     pub branch: Sign,
     /// Points of the branch, increasing in t, including both ends.

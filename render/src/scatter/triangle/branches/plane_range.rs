@@ -7,7 +7,10 @@ use crate::scatter::triangle::ends::{DepthRange, PathEnds};
 use crate::scatter::triangle::patch::TrianglePatch;
 
 /// Range ends on the triangle's plane are pulled in by this fraction of the triangle's size: at
-/// the plane V = P and f is singular. The contribution lost is of the same relative order.
+/// the plane V = P and f is singular; far above the rounding of `V − P`, so the solves at the
+/// range end converge. The layer left out is where a dense medium scatters the most (a share of
+/// about `σ_t · size · PLANE_MARGIN` of the light), so the samples still cover it
+/// (`Interval::reach`, [`plane_depth`]).
 pub(super) const PLANE_MARGIN: f64 = 1e-7;
 
 /// The part of `range` where V is behind the triangle's plane, or None if it is empty or the light
@@ -33,4 +36,14 @@ pub fn plane_t_range(
         )
         .filter(|(lo, hi)| lo < hi)
         .map(|(lo, hi)| DepthRange::new(lo, hi))
+}
+
+/// The depth at which the camera point crosses the triangle's plane (V on the plane, so `d_V = 0`
+/// and `ℓ = t` there), if the segment is not parallel to it.
+pub fn plane_depth(patch: &TrianglePatch, ends: &PathEnds) -> Option<f64> {
+    let rate = patch.normal_g.dot(ends.dir);
+    let height = patch.normal_g.dot(ends.origin - patch.p0);
+    (rate != 0.0)
+        .then(|| -height / rate)
+        .filter(|t| t.is_finite())
 }

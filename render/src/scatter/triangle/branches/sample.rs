@@ -63,20 +63,33 @@ pub fn for_each_sample(
     mut visit: impl FnMut(&RefractionPath, f64),
 ) {
     let settings = NewtonSettings::new(tolerance, DepthRange::new(interval.t_min, interval.t_max));
+    // In the layer at the plane (outside [t_min, t_max], see `Interval::reach`) the path at the
+    // interval's end stands in.
     let solve = |t: f64, stats: &mut RenderStats| {
+        let t = t.clamp(interval.t_min, interval.t_max);
         let (path, spent) = solve_at(patch, ends, t, interval.seed_at(t), &settings);
         stats.newton_iterations += u64::from(spent);
         path.filter(|p| Sign::of(p.branch) == Some(interval.branch))
     };
+    // Refinements only inside [t_min, t_max]: the layer at the plane is linear already.
+    let inside = |t: f64| t >= interval.t_min && t <= interval.t_max;
     let Some(density) = depth_density(patch, ends, interval, rule.sigma_t, |t| {
-        solve(t, stats).map(|p| p.d_v)
+        inside(t).then(|| solve(t, stats)).flatten().map(|p| p.d_v)
     }) else {
         return;
     };
     density.for_each(rule.k, &rule.offset, |sample| {
         stats.samples += 1;
         match solve(sample.t, stats) {
-            Some(path) => visit(&path, sample.ln_weight),
+            Some(mut path) => {
+                if path.t != sample.t {
+                    // In the layer at the plane: the end's path, at this depth (V on the plane
+                    // at the layer's far side, so ℓ̃ is exact to first order there).
+                    path.d_v = (density.path_length(sample.t) - sample.t).max(0.0);
+                    path.t = sample.t;
+                }
+                visit(&path, sample.ln_weight)
+            }
             None => stats.newton_failures += 1,
         }
     });
@@ -95,10 +108,16 @@ fn depth_density(
         let d_v = patch.point(s.a, s.b).distance(ends.camera_point(s.t));
         (s.t, s.t + d_v)
     }));
-    // The ends of the interval always bound the profile, even if a seed is missing there.
+    // The ends of the interval always bound the profile, even if a seed is missing there; an
+    // end widened to the triangle's plane has V on the plane there, so ℓ = t.
     for t in [interval.t_min, interval.t_max] {
         if profile.knots().iter().all(|k| k.0 != t) {
             profile.insert(t, profile.at(t).max(t));
+        }
+    }
+    for t in [interval.reach.lo, interval.reach.hi] {
+        if t < interval.t_min || t > interval.t_max {
+            profile.insert(t, t);
         }
     }
     let mut density = DepthDensity::new(profile, sigma_t)?;

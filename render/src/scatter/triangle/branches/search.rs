@@ -7,7 +7,7 @@ use super::Intervals;
 use super::boundary::{
     Boundary, BoundaryPoints, INTERIOR_LINES, InteriorSeed, InteriorSeeds, Side,
 };
-use super::plane_range::plane_t_range;
+use super::plane_range::{plane_depth, plane_t_range};
 use super::trace::{Arc, Node, Tracer, push_node};
 use crate::scatter::triangle::curve::Sign;
 use crate::scatter::triangle::edge::{Crossing, CrossingSearch, Edge, LineScan, scan_line};
@@ -50,6 +50,7 @@ pub fn triangle_intervals_with(
 ) -> Intervals {
     let tolerance = tolerance.min(SEARCH_TOLERANCE);
     let mut intervals = Intervals::default();
+    let searched = range;
     let Some(range) = plane_t_range(patch, ends, range) else {
         return intervals;
     };
@@ -196,7 +197,28 @@ pub fn triangle_intervals_with(
         }
         tracer.emit_branches(&arc, Sign::Plus, &mut intervals, stats);
     }
+    reach_the_plane(&mut intervals, plane_depth(patch, ends), range, searched);
     intervals
+}
+
+/// Widens the reach of every interval that ends where `plane_t_range` cut the `searched` range
+/// short of the triangle's plane (at depth `plane`) to the plane itself, within `searched`.
+fn reach_the_plane(
+    intervals: &mut Intervals,
+    plane: Option<f64>,
+    cut: DepthRange,
+    searched: DepthRange,
+) {
+    let Some(plane) = plane else { return };
+    let at = |t: f64, end: f64| (t - end).abs() <= 0.01 * (end - plane).abs();
+    for interval in intervals.iter_mut() {
+        if cut.lo > searched.lo && plane < cut.lo && at(interval.t_min, cut.lo) {
+            interval.reach.lo = plane.max(searched.lo);
+        }
+        if cut.hi < searched.hi && plane > cut.hi && at(interval.t_max, cut.hi) {
+            interval.reach.hi = plane.min(searched.hi);
+        }
+    }
 }
 
 /// Whether the skew scalar may change sign along a scanned line: a sign change between two scan

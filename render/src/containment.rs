@@ -1,0 +1,99 @@
+//! Which medium holds a point: where the camera and each light are, decided once per scene.
+//!
+//! A camera or a light inside a dielectric object changes the transport (the camera path starts
+//! in the medium; the light reaches the medium without crossing an interface), so it must be
+//! decided robustly. The test is the generalized winding number of the object's mesh (Jacobson,
+//! Kavan and Sorkine-Hornung 2013): the sum of the signed solid angles of its triangles over 4π,
+//! 1 inside a closed, outward-wound mesh and 0 outside, with no ray to graze an edge or a vertex;
+//! for an open mesh it degrades gracefully (a point is inside when the number is above ½). The
+//! distance to the mesh tells a sphere light that straddles a surface, which no model supports.
+
+use glam::DVec3;
+
+use crate::mesh::TriangleMesh;
+
+/// A point counts as inside a mesh when its winding number is above this.
+pub const INSIDE_WINDING: f64 = 0.5;
+
+/// A point this close to a mesh (relative to the mesh's size) is on its surface.
+pub const ON_SURFACE: f64 = 1e-9;
+
+/// Whether the medium inside `mesh` holds `p`: inside it, or on its surface (a light on the
+/// surface lights the medium directly, with no interface to cross).
+pub fn holds(mesh: &TriangleMesh, p: DVec3) -> bool {
+    let (lo, hi) = mesh.bounds();
+    let size = (hi - lo).max_element();
+    if !(p.cmpge(lo - size * ON_SURFACE).all() && p.cmple(hi + size * ON_SURFACE).all()) {
+        return false;
+    }
+    let winding = winding_number(mesh, p);
+    winding > INSIDE_WINDING
+        || (winding > 0.5 * INSIDE_WINDING && distance_to_mesh(mesh, p) <= size * ON_SURFACE)
+}
+
+/// The generalized winding number of `mesh` at `p` (1 inside a closed mesh wound
+/// counter-clockwise from outside, 0 outside, ½ on the surface).
+pub fn winding_number(mesh: &TriangleMesh, p: DVec3) -> f64 {
+    let total: f64 = (0..mesh.triangle_count())
+        .map(|i| {
+            // Van Oosterom and Strackee's solid angle of the triangle seen from p.
+            let [a, b, c] = mesh.corners(i).map(|v| v - p);
+            let (la, lb, lc) = (a.length(), b.length(), c.length());
+            let numerator = a.dot(b.cross(c));
+            let denominator = la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb;
+            2.0 * numerator.atan2(denominator)
+        })
+        .sum();
+    total / (4.0 * std::f64::consts::PI)
+}
+
+/// The distance from `p` to the nearest point of `mesh` (infinite for an empty mesh).
+pub fn distance_to_mesh(mesh: &TriangleMesh, p: DVec3) -> f64 {
+    (0..mesh.triangle_count())
+        .map(|i| closest_point_on_triangle(p, mesh.corners(i)).distance(p))
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// The point of the triangle `[a, b, c]` nearest to `p` (by the Voronoi regions of its vertices,
+/// edges and face; Ericson, Real-Time Collision Detection, §5.1.5).
+fn closest_point_on_triangle(p: DVec3, [a, b, c]: [DVec3; 3]) -> DVec3 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denominator = va + vb + vc;
+    if denominator.abs() < f64::MIN_POSITIVE {
+        // A degenerate triangle: its vertices are its nearest candidates.
+        return [a, b, c]
+            .into_iter()
+            .min_by(|x, y| x.distance_squared(p).total_cmp(&y.distance_squared(p)))
+            .unwrap_or(a);
+    }
+    a + ab * (vb / denominator) + ac * (vc / denominator)
+}
+
+#[cfg(test)]
+mod tests;
