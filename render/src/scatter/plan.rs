@@ -144,5 +144,43 @@ pub fn describe_plan(scene: &Scene) -> Vec<String> {
             };
             format!("objects[{i}]: {model} ({}{normals})", plan.reason)
         })
+        .chain(describe_placement(scene))
         .collect()
+}
+
+/// The lines that say where the camera and the lights are with respect to the media, when not
+/// in the air: a camera path starts in the camera's medium; a light in a medium lights that
+/// medium along straight paths and no other medium.
+fn describe_placement(scene: &Scene) -> Vec<String> {
+    let mut lines = Vec::new();
+    if let Some(o) = scene.camera_medium() {
+        lines.push(format!(
+            "camera: inside objects[{o}] (camera paths start in its medium)"
+        ));
+    }
+    for j in 0..scene.lights().len() {
+        let Some(o) = scene.light_medium(j) else {
+            continue;
+        };
+        let others: Vec<String> = scene
+            .objects()
+            .iter()
+            .enumerate()
+            .filter(|&(i, object)| i != o && plan_for(scene, object).model != Model::Skip)
+            .map(|(i, _)| format!("objects[{i}]"))
+            .collect();
+        let unlit = if others.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "; {} get no single scattering from it (two interfaces, not modelled)",
+                others.join(", ")
+            )
+        };
+        lines.push(format!(
+            "lights[{j}]: inside objects[{o}] (lights its medium along straight paths, no \
+             interface{unlit})"
+        ));
+    }
+    lines
 }
