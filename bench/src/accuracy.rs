@@ -80,7 +80,13 @@ pub fn run(report: &mut Report, runner: &Runner, args: &BenchArgs) -> Result<()>
     report.line("== 1. speed vs accuracy (single_scatter layer), 2. equal quality ==");
     // The same procedural scenes in both plans: the sphere stays under the brute-force check's
     // triangle limit.
-    let mut models = vec![Model::sphere(3), Model::bumpy(4)];
+    // Dense media too (σ_t × 100 and × 10,000): the interval samples follow the attenuation.
+    let mut models = vec![
+        Model::sphere(3),
+        Model::sphere(3).dense(100.0),
+        Model::sphere(3).dense(10_000.0),
+        Model::bumpy(4),
+    ];
     // The shared meshes in both plans (in the quick one, about a minute per mesh at 20x20
     // pixels, most of it point sampling at M = 512).
     let (found, skipped) = shared_meshes(&args.meshes, &SHARED_MESHES);
@@ -89,7 +95,7 @@ pub fn run(report: &mut Report, runner: &Runner, args: &BenchArgs) -> Result<()>
     }
     models.extend(found);
     report.line(format!(
-        "setup: {}x{} film, 1 spp, point light, eta 1.5, sigma_t (0.5, 1, 2), albedo 0.9; \
+        "setup: {}x{} film, 1 spp, point light, eta 1.5, sigma_t (0.5, 1, 2) (x 100 and x 10000 for the dense scenes), albedo 0.9; \
          interval K {:?} x tolerance {:?}; point sampling M {:?}; straight line; \
          reference: interval K={STRICT_K} tol {STRICT_TOLERANCE:e}, checked against brute force on the centre pixels (<= {BRUTE_FORCE_LIMIT} triangles)",
         plan.size, plan.size, plan.ks, plan.tolerances, plan.samples

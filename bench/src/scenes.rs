@@ -32,6 +32,8 @@ pub struct Model {
     pub transform: desc::Transform,
     pub assets: Assets,
     pub triangles: usize,
+    /// The medium's σ_t is `density × (0.5, 1, 2)` per unit of the unit-sphere-sized model.
+    pub density: f64,
 }
 
 impl Model {
@@ -48,6 +50,7 @@ impl Model {
             transform: desc::Transform::default(),
             assets: Assets::new(),
             triangles,
+            density: 1.0,
         }
     }
 
@@ -67,6 +70,7 @@ impl Model {
             transform: desc::Transform::default(),
             assets: Assets::new(),
             triangles,
+            density: 1.0,
         }
     }
 
@@ -101,7 +105,15 @@ impl Model {
             },
             assets,
             triangles: mesh.triangle_count(),
+            density: 1.0,
         })
+    }
+
+    /// The same model in a medium `density` times as dense (named `<name>-dense<density>`).
+    pub fn dense(mut self, density: f64) -> Model {
+        self.name = format!("{}-dense{density}", self.name);
+        self.density = density;
+        self
     }
 
     /// The scene: this model in a glass-like medium, seen by the benchmark camera.
@@ -128,7 +140,7 @@ impl Model {
                 material: desc::Material::Dielectric {
                     eta: 1.5,
                     medium: desc::Medium {
-                        sigma_t: [0.5, 1.0, 2.0],
+                        sigma_t: [0.5, 1.0, 2.0].map(|s| s * self.density),
                         albedo: [0.9, 0.9, 0.9],
                         phase: desc::Phase::Isotropic,
                     },

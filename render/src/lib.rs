@@ -12,6 +12,7 @@ pub mod camera;
 pub mod containment;
 pub mod frame;
 pub mod fresnel;
+pub mod interfaces;
 pub mod light;
 pub mod medium;
 pub mod mesh;

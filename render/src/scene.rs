@@ -18,6 +18,7 @@ use crate::Rgb;
 use crate::bvh::Bvh;
 use crate::camera::Camera;
 use crate::containment;
+use crate::interfaces::{self, SecondInterface};
 use crate::light::Light;
 use crate::medium::Medium;
 use crate::mesh::{MeshReport, TriangleMesh};
@@ -111,6 +112,8 @@ pub struct Scene {
     camera_medium: Option<usize>,
     /// Per light, the dielectric object whose medium holds it, if any.
     light_media: Vec<Option<usize>>,
+    /// Objects and lights whose light would cross a second dielectric interface.
+    second_interfaces: Vec<SecondInterface>,
     warnings: Vec<String>,
 }
 
@@ -207,6 +210,20 @@ impl Scene {
             let what = format!("lights[{j}]");
             light_media.push(medium_at(&objects, &what, light.center(), &mut warnings));
         }
+        let in_air: Vec<Option<DVec3>> = lights
+            .iter()
+            .zip(&light_media)
+            .map(|(light, medium)| medium.is_none().then(|| light.center()))
+            .collect();
+        let second_interfaces = interfaces::second_interfaces(&objects, &in_air);
+        warnings.extend(second_interfaces.iter().map(SecondInterface::describe));
+        for (inner, outer) in interfaces::nested(&objects) {
+            warnings.push(format!(
+                "{} lies inside {}: media do not nest, so light scattered in {} behind {} is \
+                 blocked rather than refracted through it",
+                objects[inner].name, objects[outer].name, objects[outer].name, objects[inner].name
+            ));
+        }
 
         Ok(Scene {
             objects,
@@ -220,6 +237,7 @@ impl Scene {
             scale,
             camera_medium,
             light_media,
+            second_interfaces,
             warnings,
         })
     }
@@ -250,6 +268,12 @@ impl Scene {
     /// The dielectric object whose medium holds the camera (camera paths start in it), if any.
     pub fn camera_medium(&self) -> Option<usize> {
         self.camera_medium
+    }
+
+    /// The (object, light) pairs whose light would reach part of the object through a second
+    /// dielectric interface (not modelled: blocked), with the share affected.
+    pub fn second_interfaces(&self) -> &[SecondInterface] {
+        &self.second_interfaces
     }
 
     /// The dielectric object whose medium holds light `light` (it lights that medium along

@@ -145,6 +145,7 @@ pub fn describe_plan(scene: &Scene) -> Vec<String> {
             format!("objects[{i}]: {model} ({}{normals})", plan.reason)
         })
         .chain(describe_placement(scene))
+        .chain(scene.second_interfaces().iter().map(|s| s.describe()))
         .collect()
 }
 

@@ -1,0 +1,92 @@
+//! Second interfaces against geometry whose answer is known: a sphere shadowing part of another's
+//! lit side is found with the share the geometry gives; a light with nothing in the way is not
+//! reported; a nested sphere is found, wholly behind the outer one.
+
+use super::*;
+use crate::Assets;
+use crate::scene::Scene;
+use serde_json::json;
+
+fn scene(objects: serde_json::Value, light: [f64; 3]) -> Scene {
+    let desc = serde_json::from_value(json!({
+        "camera": {"position": [0, 0, 10], "look_at": [0, 0, 0], "fov_y": 30},
+        "film": {"width": 4, "height": 4, "spp": 1},
+        "lights": [{"type": "point", "position": light, "intensity": [1, 1, 1]}],
+        "objects": objects
+    }))
+    .unwrap();
+    Scene::build(&desc, &Assets::new()).unwrap()
+}
+
+fn glass(radius: f64, at: [f64; 3]) -> serde_json::Value {
+    json!({"shape": {"type": "icosphere", "radius": radius, "subdivisions": 3},
+           "transform": {"translate": at},
+           "material": {"type": "dielectric", "eta": 1.5,
+                        "medium": {"sigma_t": [1, 1, 1], "albedo": [0.5, 0.5, 0.5]}}})
+}
+
+#[test]
+fn a_sphere_between_the_light_and_another_is_reported_with_its_share() {
+    // A small sphere on the line from a far light to a big one: it shadows a disc of the big
+    // one's lit hemisphere.
+    let s = scene(
+        json!([glass(1.0, [0.0, 0.0, 0.0]), glass(0.5, [0.0, 0.0, 3.0])]),
+        [0.0, 0.0, 1000.0],
+    );
+    let found: Vec<_> = s
+        .second_interfaces()
+        .iter()
+        .filter(|f| f.object == 0)
+        .collect();
+    assert_eq!(found.len(), 1, "{:?}", s.second_interfaces());
+    assert_eq!(found[0].blockers, vec![1]);
+    // For a light at infinity along +z, a point of the unit sphere at polar angle θ (lit when
+    // cos θ > 0) is blocked when its distance to the axis, sin θ, is below 0.5: by area (uniform
+    // in cos θ on the hemisphere), the share is 1 − cos(asin 0.5) = 0.134.
+    let truth = 1.0 - (1.0f64 - 0.25).sqrt();
+    assert!(
+        (found[0].share - truth).abs() < 0.03,
+        "{} vs {truth}",
+        found[0].share
+    );
+    assert!(
+        s.warnings()
+            .iter()
+            .any(|w| w.contains("objects[0] and lights[0]"))
+    );
+    assert!(
+        crate::scatter::describe_plan(&s)
+            .iter()
+            .any(|l| l.contains("second refractive interface"))
+    );
+}
+
+#[test]
+fn nothing_in_the_way_is_not_reported() {
+    let s = scene(
+        json!([glass(1.0, [0.0, 0.0, 0.0]), glass(0.5, [4.0, 0.0, 0.0])]),
+        [0.0, 0.0, 1000.0],
+    );
+    assert!(
+        s.second_interfaces().is_empty(),
+        "{:?}",
+        s.second_interfaces()
+    );
+}
+
+#[test]
+fn a_nested_sphere_is_found_and_fully_behind_the_outer_one() {
+    let s = scene(
+        json!([glass(1.0, [0.0, 0.0, 0.0]), glass(0.3, [0.1, 0.0, 0.0])]),
+        [0.0, 0.0, 50.0],
+    );
+    let objects = s.objects();
+    assert_eq!(nested(objects), vec![(1, 0)]);
+    let inner = s
+        .second_interfaces()
+        .iter()
+        .find(|f| f.object == 1)
+        .expect("the inner sphere is reported");
+    assert_eq!(inner.share, 1.0);
+    assert!(s.warnings().iter().any(|w| w.contains("lies inside")));
+}
