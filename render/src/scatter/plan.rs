@@ -5,7 +5,8 @@
 //! * nothing at all where nothing can scatter: an opaque object, a medium with σ_s = 0 (albedo 0
 //!   or σ_t = 0), or a scene without lights;
 //! * η = 1 exactly: the boundary does not bend light, so the straight path is exact and no
-//!   refraction is solved (`straight_line`, physics.md §1.2, §4);
+//!   refraction is solved (`straight_line`, physics.md §1.2, §4) — for the explicit refraction
+//!   methods too (`interval`, `point_sampling`, `reference`), whose solve is singular there;
 //! * a medium much thicker than the object (`σ_t · diameter ≥ 30` in every channel, the paper's
 //!   App. B.3 observation that the straight-line model is then close), only when
 //!   `auto_tolerance > 0` allows an approximation: `straight_line`;
@@ -51,8 +52,17 @@ pub fn plan_for(scene: &Scene, object: &Object) -> Plan {
     };
     let medium = dielectric.medium;
     let explicit = |model, reason| Plan { model, reason };
+    let index_matched = dielectric.eta == 1.0;
     match settings.method {
         ScatterMethod::None => return skip("method none"),
+        ScatterMethod::Interval | ScatterMethod::PointSampling | ScatterMethod::Reference
+            if index_matched =>
+        {
+            return explicit(
+                Model::StraightLine,
+                "eta = 1: the refraction solve is singular there and the straight path is exact",
+            );
+        }
         ScatterMethod::Interval => return explicit(Model::Interval, "method interval"),
         ScatterMethod::PointSampling => {
             return explicit(Model::PointSampling, "method point_sampling");
@@ -69,7 +79,7 @@ pub fn plan_for(scene: &Scene, object: &Object) -> Plan {
     if medium.sigma_s.max_element() <= 0.0 {
         return skip("auto: sigma_s = 0 (albedo 0 or sigma_t 0), nothing scatters");
     }
-    if dielectric.eta == 1.0 {
+    if index_matched {
         return Plan {
             model: Model::StraightLine,
             reason: "auto: eta = 1, the straight path is exact (no refraction solve)",
