@@ -133,7 +133,7 @@ fn surface_points(object: &Object) -> Vec<(DVec3, DVec3)> {
         .map(|t| 0.5 * mesh.geometric_normal(t).length())
         .collect();
     let total: f64 = areas.iter().sum();
-    if !(total > 0.0) {
+    if total.is_nan() || total <= 0.0 {
         return Vec::new();
     }
     let mut points = Vec::with_capacity(SURFACE_POINTS);
