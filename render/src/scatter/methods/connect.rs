@@ -46,7 +46,7 @@ impl Connection<'_> {
         &self,
         triangle: u32,
         path: &RefractionPath,
-        ln_weight: f64,
+        ln_weight: Rgb,
         stats: &mut RenderStats,
     ) -> Rgb {
         let intensity = self.light.intensity_toward(path.p);

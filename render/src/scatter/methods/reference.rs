@@ -3,10 +3,11 @@
 //!
 //! No pruning: every triangle of the object is tried (only the exact necessary plane-side
 //! condition of physics.md §2.3 skips a triangle: V behind its plane and L in front). Camera points
-//! are `M = samples_per_segment` stratified jittered `t_j`. At each, a fixed-`t` Newton solve runs
-//! from every point of a grid of starts inside the triangle (plus the straight-line guess), and
-//! *every* distinct valid solution is summed (solutions closer than 1e-7 in barycentrics are the
-//! same). The estimate is `(ℓ/M) Σ_j Σ_k C_k(t_j)`.
+//! are `M = samples_per_segment` stratified jittered `t_j`, drawn by the camera side's attenuation
+//! as point sampling draws them (`depth_density`; uniform for σ_t = 0). At each, a fixed-`t`
+//! Newton solve runs from every point of a grid of starts inside the triangle (plus the
+//! straight-line guess), and *every* distinct valid solution is summed (solutions closer than
+//! 1e-7 in barycentrics are the same). The estimate is `(1/M) Σ_j Σ_k C_k(t_j)/q(t_j)`.
 
 use spindle_common::scene::SingleScatter;
 use spindle_common::stats::RenderStats;
@@ -15,6 +16,7 @@ use super::plane_sides_allow;
 use crate::Rgb;
 use crate::sampler::Sampler;
 use crate::scatter::methods::connect::Connection;
+use crate::scatter::triangle::depth_density::{DepthDensity, DepthSample, PathLengths};
 use crate::scatter::triangle::ends::DepthRange;
 use crate::scatter::triangle::solve::{
     NewtonSettings, RefractionPath, Slice, newton, straight_line_guess,
@@ -46,8 +48,13 @@ pub fn estimate(
     );
     let ends = connection.ends;
     let mut sum = Rgb::ZERO;
-    for j in 0..m {
-        let t = (j as f64 + sampler.next_f64()) / m as f64 * length;
+    let camera_side = PathLengths::new([(0.0, 0.0), (length, length)]);
+    let Some(density) = DepthDensity::new(camera_side, connection.medium.sigma_t) else {
+        return Rgb::ZERO;
+    };
+    let mut points = Vec::with_capacity(m as usize);
+    density.for_each(m, |_| sampler.next_f64(), |sample| points.push(sample));
+    for DepthSample { t, ln_weight } in points {
         let v = ends.camera_point(t);
         for triangle in 0..connection.object.mesh.triangle_count() as u32 {
             stats.triangles_tested += 1;
@@ -95,9 +102,9 @@ pub fn estimate(
                 stats.samples += 1;
                 found[count] = (a, b);
                 count += 1;
-                sum += connection.path_radiance(triangle, &path, 0.0, stats);
+                sum += connection.path_radiance(triangle, &path, ln_weight, stats);
             }
         }
     }
-    sum * (length / f64::from(m))
+    sum
 }

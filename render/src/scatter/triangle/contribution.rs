@@ -14,7 +14,7 @@ use crate::scatter::triangle::solve::RefractionPath;
 /// `C = σ_s · p(ω_V·(−r̂)) · T_P · I · η² · e^{−σ_t (t + d_V)} / D` for one path at camera
 /// parameter `path.t`: the radiance toward the camera at V per unit length of the segment, from a
 /// point light of intensity `intensity` (W/sr per channel) at `ends.light`, times the sample
-/// weight `e^{ln_weight}` (folded into the attenuation's exponent, so that a dense medium's tiny
+/// weight `e^{ln_weight}` per channel (folded into the attenuation's exponent, so that a dense medium's tiny
 /// attenuation and large weight never underflow or overflow apart). Includes η² and excludes
 /// `T(V_min)` (see the module doc); visibility is the caller's.
 #[inline]
@@ -23,7 +23,7 @@ pub fn path_contribution(
     ends: &PathEnds,
     medium: &Medium,
     intensity: Rgb,
-    ln_weight: f64,
+    ln_weight: Rgb,
 ) -> Rgb {
     let phase = medium.phase.eval(-path.omega_v.dot(ends.dir));
     let attenuation = (ln_weight - (path.t + path.d_v) * medium.sigma_t).exp();
@@ -65,7 +65,8 @@ mod tests {
             let path = solve_at(&patch, &ends, t, guess, &settings)
                 .0
                 .expect("flat path exists");
-            path_contribution(&path, &ends, &medium, DVec3::ONE, 0.0).x / (ends.eta * ends.eta)
+            path_contribution(&path, &ends, &medium, DVec3::ONE, DVec3::ZERO).x
+                / (ends.eta * ends.eta)
         };
         let rule = gauss_legendre(32);
         let panels = 8;

@@ -49,7 +49,7 @@ impl SampleRule<fn(u32) -> f64> {
 }
 
 /// Calls `visit(path, ln_weight)` for the sample points of `interval`, where `ln_weight` is the
-/// logarithm of the sample's weight without the attenuation (see `depth_density`: the
+/// logarithm of the sample's weight per channel without the attenuation (see `depth_density`: the
 /// contribution is `e^{ln_weight − σ_t ℓ}` times the rest). Each is solved at fixed t from the
 /// interval's seed and kept only on the interval's branch. Samples and Newton work are counted
 /// in `stats`; visibility and the contribution are the caller's.
@@ -60,7 +60,7 @@ pub fn for_each_sample(
     rule: &SampleRule<impl Fn(u32) -> f64>,
     tolerance: f64,
     stats: &mut RenderStats,
-    mut visit: impl FnMut(&RefractionPath, f64),
+    mut visit: impl FnMut(&RefractionPath, Rgb),
 ) {
     let settings = NewtonSettings::new(tolerance, DepthRange::new(interval.t_min, interval.t_max));
     // In the layer at the plane (outside [t_min, t_max], see `Interval::reach`) the path at the

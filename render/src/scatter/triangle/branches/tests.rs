@@ -273,13 +273,13 @@ fn folds_are_split_and_every_branch_is_integrated() {
                 };
                 for_each_sample(&patch, &ends, iv, &rule, 1e-13, &mut stats, |path, _| {
                     count += 1;
-                    sum += path_contribution(path, &ends, &medium, DVec3::ONE, 0.0).x;
+                    sum += path_contribution(path, &ends, &medium, DVec3::ONE, DVec3::ZERO).x;
                 });
             }
             let brute = all_solutions(&patch, &ends, t);
             let brute_sum: f64 = brute
                 .iter()
-                .map(|p| path_contribution(p, &ends, &medium, DVec3::ONE, 0.0).x)
+                .map(|p| path_contribution(p, &ends, &medium, DVec3::ONE, DVec3::ZERO).x)
                 .sum();
             if count != brute.len() {
                 mismatches += 1;
