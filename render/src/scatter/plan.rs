@@ -7,20 +7,17 @@
 //! * η = 1 exactly: the boundary does not bend light, so the straight path is exact and no
 //!   refraction is solved (`straight_line`, physics.md §1.2, §4) — for the explicit refraction
 //!   methods too (`interval`, `point_sampling`, `reference`), whose solve is singular there;
-//! * a medium much thicker than the object (`σ_t · diameter ≥ 30` in every channel, the paper's
-//!   App. B.3 observation that the straight-line model is then close), only when
-//!   `auto_tolerance > 0` allows an approximation: `straight_line`;
-//! * otherwise the interval method of [H15]. Where an object's normals are flat the per-triangle
+//! * otherwise the interval method of [H15], dense media included: [H15] App. B.3 observes that
+//!   the straight-line model comes close above 30 mean free paths, but measured on a front-lit
+//!   sphere at 100 and 10,000 times that it is more than 100 % off (docs/benchmarks.md, "Dense
+//!   media"), beyond any `auto_tolerance`, while the interval method with depths sampled by
+//!   attenuation is right to 0.3 % at K = 1 there. Where an object's normals are flat the per-triangle
 //!   solver uses the closed-form D (physics.md eq. 3) by itself; the plan says so.
 
-use spindle_common::scene::{ScatterMethod, SingleScatter};
+use spindle_common::scene::ScatterMethod;
 
 use crate::scatter::geometry::BoundingSphere;
 use crate::scene::{Material, Object, Scene};
-
-/// Object size in mean free paths above which `auto` may use the straight-line model ([H15]
-/// App. B.3: the straight-line approximation is close to the reference above 30 mfp).
-pub const THICK_MEAN_FREE_PATHS: f64 = 30.0;
 
 /// The model that runs for an object.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -85,23 +82,10 @@ pub fn plan_for(scene: &Scene, object: &Object) -> Plan {
             reason: "auto: eta = 1, the straight path is exact (no refraction solve)",
         };
     }
-    if is_thick(object, medium.sigma_t.min_element(), settings) {
-        return Plan {
-            model: Model::StraightLine,
-            reason: "auto: medium >= 30 mean free paths across the object and auto_tolerance > 0",
-        };
-    }
     Plan {
         model: Model::Interval,
         reason: "auto: refractive boundary",
     }
-}
-
-/// Whether the straight-line model is allowed for an optically thick object.
-fn is_thick(object: &Object, sigma_t_min: f64, settings: &SingleScatter) -> bool {
-    settings.auto_tolerance > 0.0
-        && object_bounds(object)
-            .is_some_and(|b| sigma_t_min * 2.0 * b.radius >= THICK_MEAN_FREE_PATHS)
 }
 
 /// The bounding sphere of an object (from its BVH root box); `None` for an empty object.
