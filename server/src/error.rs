@@ -24,7 +24,7 @@ pub enum Error {
     /// The request conflicts with the current state: a stale lease, a job not done yet (409).
     #[error("{0}")]
     Conflict(String),
-    /// The body did not arrive in time (408).
+    /// The body or the whole request did not arrive in time (408, and the connection closes).
     #[error("{0}")]
     Timeout(String),
     /// The body is larger than the route allows (413).
@@ -81,6 +81,13 @@ impl IntoResponse for Error {
             other => other.to_string(),
         };
         let mut response = (status, Json(ApiError { error: message })).into_response();
+        if matches!(self, Error::Timeout(_)) {
+            // The rest of a late body may still be on its way: end the connection.
+            response.headers_mut().insert(
+                axum::http::header::CONNECTION,
+                axum::http::HeaderValue::from_static("close"),
+            );
+        }
         if matches!(self, Error::Unauthorized(_)) {
             response.headers_mut().insert(
                 axum::http::header::WWW_AUTHENTICATE,

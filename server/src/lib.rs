@@ -19,6 +19,7 @@ pub mod extract;
 pub mod jobs;
 pub mod lease;
 pub mod limits;
+pub mod serve;
 pub mod tile_store;
 
 use std::future::Future;
@@ -29,7 +30,7 @@ use axum::Router;
 use tokio::sync::Notify;
 use tokio_util::sync::CancellationToken;
 
-pub use config::{Args, Config};
+pub use config::{Args, Config, Timeouts};
 pub use limits::Limits;
 
 use assets::AssetStore;
@@ -195,12 +196,9 @@ pub async fn run(
     let router = app(state.clone());
     tracing::info!(%addr, "spindle-server listening");
     let draining = state.clone();
-    axum::serve(listener, router)
-        .with_graceful_shutdown(async move {
-            shutdown.await;
-            tracing::info!("shutting down");
-            draining.begin_shutdown();
-        })
-        .await?;
-    Ok(())
+    let shutdown = async move {
+        shutdown.await;
+        draining.begin_shutdown();
+    };
+    serve::serve(state.config(), listener, router, shutdown).await
 }

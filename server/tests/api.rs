@@ -30,6 +30,10 @@ async fn tokens_guard_their_routes() {
         (Method::GET, "/v1/jobs", Some(WORKER)), // a worker token is not a client token
         (Method::POST, "/v1/workers", Some(CLIENT)), // and the other way round
         (Method::POST, "/v1/workers/1/lease", None),
+        // The token exactly: no trimming, no prefix.
+        (Method::GET, "/v1/jobs", Some(" client-secret")),
+        (Method::GET, "/v1/jobs", Some("client-secret ")),
+        (Method::GET, "/v1/jobs", Some("client-secre")),
     ] {
         let (status, body) = c.send(method.clone(), uri, token, "{}").await;
         assert_eq!(status, StatusCode::UNAUTHORIZED, "{method} {uri} {token:?}");

@@ -74,7 +74,8 @@ async fn lease(
     let wait = request
         .wait_ms
         .unwrap_or(MAX_LEASE_WAIT_MS)
-        .min(MAX_LEASE_WAIT_MS);
+        .min(MAX_LEASE_WAIT_MS)
+        .min(state.config().timeouts.long_poll_cap().as_millis() as u64);
     let deadline = Instant::now() + Duration::from_millis(wait);
     loop {
         let notified = state.work_notified();
