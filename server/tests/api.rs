@@ -126,6 +126,26 @@ async fn bad_input_gets_a_clear_4xx_and_leaves_existing_jobs_untouched() {
             "scene.objects[0].material.medium.sigma_t",
         ),
         (
+            "camera beyond the scene's extent",
+            with_scene(&|b| b["scene"]["camera"]["position"][0] = json!(1.7e308)),
+            StatusCode::BAD_REQUEST,
+            "scene.camera.position[0]: must be within ±1e6",
+        ),
+        (
+            "scale beyond the scene's extent",
+            with_scene(&|b| {
+                b["scene"]["objects"][0]["transform"] = json!({"scale": [1e200, 1e200, 1e200]})
+            }),
+            StatusCode::BAD_REQUEST,
+            "scene.objects[0].transform.scale[0]: must be between",
+        ),
+        (
+            "spp beyond the one bound",
+            with_scene(&|b| b["scene"]["film"]["spp"] = json!(65537)),
+            StatusCode::BAD_REQUEST,
+            "scene.film.spp: must be <= 65536",
+        ),
+        (
             "too many triangles",
             with_scene(&|b| b["scene"]["objects"][0]["shape"]["subdivisions"] = json!(3)),
             StatusCode::BAD_REQUEST,
