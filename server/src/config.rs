@@ -59,6 +59,13 @@ pub struct Args {
     /// descriptors kept for the coordinator itself). Further connections wait to be accepted.
     #[arg(long, env = "SPINDLE_MAX_CONNECTIONS", default_value_t = DEFAULT_MAX_CONNECTIONS)]
     pub max_connections: usize,
+    /// Requests a second (on average; bursts of twice that) each client address may send to
+    /// the client routes; past it, 429 with Retry-After.
+    #[arg(long, env = "SPINDLE_CLIENT_RATE", default_value_t = DEFAULT_CLIENT_RATE_PER_S)]
+    pub client_rate_per_s: u32,
+    /// Leases one worker may hold at once; a lease request past it gets 429 with Retry-After.
+    #[arg(long, env = "SPINDLE_MAX_LEASES_PER_WORKER", default_value_t = DEFAULT_MAX_LEASES_PER_WORKER)]
+    pub max_leases_per_worker: usize,
     /// The token flags whose value came from the command line (see [`Args::from_process`]).
     #[arg(skip)]
     pub tokens_in_argv: Vec<&'static str>,
@@ -66,6 +73,11 @@ pub struct Args {
 
 /// Shortest token accepted for a non-loopback address (bytes).
 pub const MIN_TOKEN_BYTES: usize = 16;
+
+/// Default of `--client-rate-per-s`.
+pub const DEFAULT_CLIENT_RATE_PER_S: u32 = 50;
+/// Default of `--max-leases-per-worker` (a worker renders one tile at a time).
+pub const DEFAULT_MAX_LEASES_PER_WORKER: usize = 4;
 
 /// Default of `--max-connections`.
 pub const DEFAULT_MAX_CONNECTIONS: usize = 1024;
@@ -116,6 +128,10 @@ pub struct Config {
     pub timeouts: Timeouts,
     /// Most connections open at once (lowered at start to fit the open-file limit).
     pub max_connections: usize,
+    /// Requests a second each client address may send to client routes (bursts of twice).
+    pub client_rate_per_s: std::num::NonZeroU32,
+    /// Leases one worker may hold at once.
+    pub max_leases_per_worker: usize,
 }
 
 impl Config {
@@ -130,6 +146,9 @@ impl Config {
             limits: Limits::default(),
             timeouts: Timeouts::default(),
             max_connections: DEFAULT_MAX_CONNECTIONS,
+            client_rate_per_s: std::num::NonZeroU32::new(DEFAULT_CLIENT_RATE_PER_S)
+                .expect("a positive default"),
+            max_leases_per_worker: DEFAULT_MAX_LEASES_PER_WORKER,
         }
     }
 
@@ -215,6 +234,12 @@ impl Args {
         if self.max_connections == 0 {
             bail!("--max-connections: must be at least 1");
         }
+        let Some(client_rate_per_s) = std::num::NonZeroU32::new(self.client_rate_per_s) else {
+            bail!("--client-rate-per-s: must be at least 1");
+        };
+        if self.max_leases_per_worker == 0 {
+            bail!("--max-leases-per-worker: must be at least 1");
+        }
         let limits = Limits {
             max_active_jobs: self.max_jobs,
             ..Limits::default()
@@ -228,6 +253,8 @@ impl Args {
             limits,
             timeouts,
             max_connections: self.max_connections,
+            client_rate_per_s,
+            max_leases_per_worker: self.max_leases_per_worker,
         };
         config.check_listen_address(self.listen)?;
         Ok(config)

@@ -30,10 +30,16 @@ pub enum Error {
     /// The body is larger than the route allows (413).
     #[error("{0}")]
     TooLarge(String),
-    /// Too many jobs queued (429).
+    /// Too many jobs queued (429, `Retry-After: 10`).
     #[error("{0}")]
     TooMany(String),
-    /// The coordinator is shutting down or not ready (503).
+    /// A caller over its rate or lease allowance (429, `Retry-After` the wait in whole seconds).
+    #[error("{message}")]
+    RateLimited {
+        message: String,
+        retry_after: std::time::Duration,
+    },
+    /// The coordinator is shutting down or not ready (503, `Retry-After: 5`).
     #[error("{0}")]
     Unavailable(&'static str),
     /// A failure of the coordinator itself (500); the cause is logged, not sent.
@@ -51,9 +57,21 @@ impl Error {
             Error::Conflict(_) => StatusCode::CONFLICT,
             Error::Timeout(_) => StatusCode::REQUEST_TIMEOUT,
             Error::TooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
-            Error::TooMany(_) => StatusCode::TOO_MANY_REQUESTS,
+            Error::TooMany(_) | Error::RateLimited { .. } => StatusCode::TOO_MANY_REQUESTS,
             Error::Unavailable(_) => StatusCode::SERVICE_UNAVAILABLE,
             Error::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
+        }
+    }
+
+    /// How long a client should wait before trying again, for the statuses that say "later"
+    /// (every 429 and 503 carries it as `Retry-After`).
+    pub fn retry_after(&self) -> Option<std::time::Duration> {
+        use std::time::Duration;
+        match self {
+            Error::TooMany(_) => Some(Duration::from_secs(10)),
+            Error::RateLimited { retry_after, .. } => Some(*retry_after),
+            Error::Unavailable(_) => Some(Duration::from_secs(5)),
+            _ => None,
         }
     }
 }
@@ -81,6 +99,14 @@ impl IntoResponse for Error {
             other => other.to_string(),
         };
         let mut response = (status, Json(ApiError { error: message })).into_response();
+        if let Some(wait) = self.retry_after() {
+            // Whole seconds, rounded up: never "0", which would invite an immediate retry.
+            let seconds = wait.as_secs() + u64::from(wait.subsec_nanos() > 0);
+            response.headers_mut().insert(
+                axum::http::header::RETRY_AFTER,
+                axum::http::HeaderValue::from(seconds.max(1)),
+            );
+        }
         if matches!(self, Error::Timeout(_)) {
             // The rest of a late body may still be on its way: end the connection.
             response.headers_mut().insert(

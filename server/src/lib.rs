@@ -20,6 +20,7 @@ pub mod jobs;
 pub mod lease;
 pub mod limits;
 pub mod serve;
+pub mod throttle;
 pub mod tile_store;
 
 use std::future::Future;
@@ -48,6 +49,7 @@ struct Shared {
     ledger: Mutex<Ledger>,
     assets: AssetStore,
     tiles: TileStore,
+    client_rate: throttle::ClientRate,
     /// Woken when tiles may have become available (a job submitted, a tile failed).
     work: Notify,
     shutdown: CancellationToken,
@@ -72,12 +74,14 @@ impl AppState {
         })
         .await??;
         let jobs = ledger.jobs.len();
+        let client_rate = throttle::ClientRate::new(config.client_rate_per_s);
         let state = AppState {
             inner: Arc::new(Shared {
                 config,
                 ledger: Mutex::new(ledger),
                 assets,
                 tiles,
+                client_rate,
                 work: Notify::new(),
                 shutdown: CancellationToken::new(),
             }),
@@ -102,6 +106,10 @@ impl AppState {
 
     pub(crate) fn assets(&self) -> &AssetStore {
         &self.inner.assets
+    }
+
+    pub(crate) fn client_rate(&self) -> &throttle::ClientRate {
+        &self.inner.client_rate
     }
 
     pub(crate) fn tile_store(&self) -> &TileStore {

@@ -28,6 +28,7 @@ use utoipa_axum::router::{OpenApiRouter, UtoipaMethodRouter};
 use crate::AppState;
 use crate::auth::{self, Role};
 use crate::error::Error;
+use crate::throttle;
 
 /// Documented handlers (one `routes!` each) with the role that may call them.
 type Declared = Vec<(Role, UtoipaMethodRouter<AppState>)>;
@@ -43,7 +44,9 @@ type Declared = Vec<(Role, UtoipaMethodRouter<AppState>)>;
                        `{\"error\": \"...\"}`. Any route answers 408 (and closes the \
                        connection) when its request outlasts the request deadline (300 s by \
                        default) or its body pauses past the header deadline (10 s); headers \
-                       not complete within the header deadline close the connection."
+                       not complete within the header deadline close the connection. Client \
+                       routes answer 429 past --client-rate-per-s requests a second per \
+                       address (50, bursts of 100); every 429 and 503 carries Retry-After."
     ),
     modifiers(&BearerTokens)
 )]
@@ -109,7 +112,13 @@ fn routes_and_document(state: &AppState) -> (Router<AppState>, utoipa::openapi::
     for (role, (schemas, mut paths, handler)) in declared {
         require_token(&mut paths, role);
         let auth = axum::middleware::from_fn_with_state((state.clone(), role), auth::require);
-        api = api.routes((schemas, paths, handler.layer(auth)));
+        let handler = if role == Role::Client {
+            let rate = axum::middleware::from_fn_with_state(state.clone(), throttle::client_rate);
+            handler.layer(auth).layer(rate)
+        } else {
+            handler.layer(auth)
+        };
+        api = api.routes((schemas, paths, handler));
     }
     api.split_for_parts()
 }
