@@ -16,8 +16,18 @@ use crate::scene::{
 /// The largest image side accepted, in pixels (a sanity cap: 16384² pixels of three RGB f32
 /// layers is already 9 GiB).
 pub const MAX_IMAGE_SIDE: u32 = 16384;
-/// The largest `film.spp` accepted.
-pub const MAX_SPP: u32 = 1 << 20;
+/// The largest `film.spp` accepted (by the CLI, the renderer and the coordinator alike).
+pub const MAX_SPP: u32 = 1 << 16;
+/// The largest absolute world coordinate of anything in a scene — camera, lights, and every
+/// vertex after its object's transform — and the largest length (radii). The renderer keeps
+/// boxes in f32 (7 significant digits) and solves in f64 with absolute tolerances scaled to the
+/// scene, so a scene must fit in a range where both stay meaningful; ±10⁶ leaves f32 boxes
+/// resolving 0.1 at the edge and f64 solves 10 digits to spare.
+pub const MAX_COORDINATE: f64 = 1e6;
+/// The smallest length accepted (radii), and the smallest absolute scale factor.
+pub const MIN_LENGTH: f64 = 1e-6;
+/// The largest absolute scale factor of a transform.
+pub const MAX_SCALE: f64 = 1e6;
 /// The largest icosphere subdivision level: level 10 is 20·4¹⁰ ≈ 21 million triangles.
 pub const MAX_SUBDIVISIONS: u32 = 10;
 /// The largest relative index of refraction accepted (diamond is 2.42; 10 catches typos).
@@ -111,8 +121,8 @@ fn check_camera(path: &str, camera: &Camera) -> Check {
     let position = format!("{path}.position");
     let look_at = format!("{path}.look_at");
     let up = format!("{path}.up");
-    check_vec3(&position, &camera.position)?;
-    check_vec3(&look_at, &camera.look_at)?;
+    check_point(&position, &camera.position)?;
+    check_point(&look_at, &camera.look_at)?;
     check_vec3(&up, &camera.up)?;
 
     // The view direction must exist and be representable.
@@ -162,7 +172,7 @@ fn check_light(path: &str, light: &Light) -> Check {
             position,
             intensity,
         } => {
-            check_vec3(&format!("{path}.position"), position)?;
+            check_point(&format!("{path}.position"), position)?;
             check_rgb_at_least(&format!("{path}.intensity"), intensity, 0.0)
         }
         Light::Sphere {
@@ -170,8 +180,8 @@ fn check_light(path: &str, light: &Light) -> Check {
             radius,
             radiance,
         } => {
-            check_vec3(&format!("{path}.center"), center)?;
-            check_positive(&format!("{path}.radius"), *radius)?;
+            check_point(&format!("{path}.center"), center)?;
+            check_length(&format!("{path}.radius"), *radius)?;
             check_rgb_at_least(&format!("{path}.radiance"), radiance, 0.0)
         }
     }
@@ -204,7 +214,7 @@ fn check_shape(path: &str, shape: &Shape) -> Check {
             radius,
             subdivisions,
         } => {
-            check_positive(&format!("{path}.radius"), *radius)?;
+            check_length(&format!("{path}.radius"), *radius)?;
             check_subdivisions(&format!("{path}.subdivisions"), *subdivisions)
         }
         Shape::BumpySphere {
@@ -214,7 +224,7 @@ fn check_shape(path: &str, shape: &Shape) -> Check {
             frequency,
             seed: _,
         } => {
-            check_positive(&format!("{path}.radius"), *radius)?;
+            check_length(&format!("{path}.radius"), *radius)?;
             check_subdivisions(&format!("{path}.subdivisions"), *subdivisions)?;
             let amplitude_path = format!("{path}.amplitude");
             check_finite(&amplitude_path, *amplitude)?;
@@ -255,9 +265,18 @@ fn check_transform(path: &str, transform: &Transform) -> Check {
                 "must not be 0 (a zero scale flattens the object and has no inverse)",
             ));
         }
+        if !(MIN_LENGTH..=MAX_SCALE).contains(&s.abs()) {
+            return Err(SceneError::new(
+                format!("{scale}[{i}]"),
+                format!(
+                    "must be between {MIN_LENGTH:e} and {MAX_SCALE:e} in absolute value (the scene \
+                     must fit within ±{MAX_COORDINATE:e}), got {s}"
+                ),
+            ));
+        }
     }
     check_vec3(&format!("{path}.rotate_deg"), &transform.rotate_deg)?;
-    check_vec3(&format!("{path}.translate"), &transform.translate)
+    check_point(&format!("{path}.translate"), &transform.translate)
 }
 
 fn check_material(path: &str, material: &Material) -> Check {
@@ -363,6 +382,37 @@ fn check_vec3(path: &str, v: &Vec3) -> Check {
         check_finite(&format!("{path}[{i}]"), *x)?;
     }
     Ok(())
+}
+
+/// A position in the world: every coordinate within ±[`MAX_COORDINATE`].
+fn check_point(path: &str, v: &Vec3) -> Check {
+    for (i, x) in v.iter().enumerate() {
+        let component = format!("{path}[{i}]");
+        check_finite(&component, *x)?;
+        if x.abs() > MAX_COORDINATE {
+            return Err(SceneError::new(
+                component,
+                format!(
+                    "must be within ±{MAX_COORDINATE:e} (the scene's extent, see scenes/README.md), \
+                     got {x}"
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// A length (a radius): in [[`MIN_LENGTH`], [`MAX_COORDINATE`]].
+fn check_length(path: &str, x: f64) -> Check {
+    check_positive(path, x)?;
+    if (MIN_LENGTH..=MAX_COORDINATE).contains(&x) {
+        Ok(())
+    } else {
+        Err(SceneError::new(
+            path,
+            format!("must be between {MIN_LENGTH:e} and {MAX_COORDINATE:e}, got {x}"),
+        ))
+    }
 }
 
 fn check_at_least(path: &str, x: f64, lo: f64) -> Check {

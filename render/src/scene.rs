@@ -12,7 +12,7 @@ use std::collections::HashMap;
 use glam::DVec3;
 use rayon::prelude::*;
 use spindle_common::scene as desc;
-use spindle_common::validate::SceneError;
+use spindle_common::validate::{MAX_COORDINATE, SceneError};
 
 use crate::Rgb;
 use crate::bvh::Bvh;
@@ -395,10 +395,19 @@ fn build_object(
     let transform =
         Transform::new(&object.transform).map_err(|e| nested_error(field("transform"), e))?;
     let mesh = transform.apply(&local);
-    if mesh.positions().iter().any(|p| !p.is_finite()) {
+    // f32 boxes and f64 solves are meaningful only within the scene extent the format allows
+    // (an OBJ's own coordinates are not seen by `validate`).
+    if let Some(p) = mesh
+        .positions()
+        .iter()
+        .find(|p| !(p.is_finite() && p.abs().max_element() <= MAX_COORDINATE))
+    {
         return Err(SceneError::new(
             field("transform"),
-            "moves vertices to infinity",
+            format!(
+                "places a vertex at {p}, outside the scene's extent of ±{MAX_COORDINATE:e} per \
+                 coordinate (scenes/README.md)"
+            ),
         ));
     }
     let material = match &object.material {

@@ -17,22 +17,24 @@ use crate::limits::Limits;
 #[derive(Debug, Clone, clap::Parser)]
 #[command(name = "spindle-server", version, about)]
 pub struct Args {
-    /// Address to listen on. A non-loopback address needs both tokens.
+    /// Address to listen on. A non-loopback address needs both tokens, each at least 16 bytes.
     #[arg(long, env = "SPINDLE_LISTEN", default_value = "127.0.0.1:7878")]
     pub listen: SocketAddr,
     /// Directory for the database, assets, tile results and images (created if missing).
     #[arg(long, env = "SPINDLE_DATA")]
     pub data: PathBuf,
-    /// Bearer token clients must send.
+    /// Bearer token clients must send. Prefer SPINDLE_TOKEN or --token-file: a value on the
+    /// command line is visible to every user of the machine (ps), and draws a warning.
     #[arg(long, env = "SPINDLE_TOKEN", hide_env_values = true)]
     pub token: Option<String>,
-    /// File holding the client token (instead of `--token`).
+    /// File holding the client token: printable ASCII, at most one final newline.
     #[arg(long, env = "SPINDLE_TOKEN_FILE", conflicts_with = "token")]
     pub token_file: Option<PathBuf>,
-    /// Bearer token workers must send.
+    /// Bearer token workers must send; must differ from the client token. Prefer
+    /// SPINDLE_WORKER_TOKEN or --worker-token-file (a command-line value draws a warning).
     #[arg(long, env = "SPINDLE_WORKER_TOKEN", hide_env_values = true)]
     pub worker_token: Option<String>,
-    /// File holding the worker token (instead of `--worker-token`).
+    /// File holding the worker token: printable ASCII, at most one final newline.
     #[arg(
         long,
         env = "SPINDLE_WORKER_TOKEN_FILE",
@@ -45,6 +47,66 @@ pub struct Args {
     /// Most jobs queued or running at once.
     #[arg(long, env = "SPINDLE_MAX_JOBS", default_value_t = Limits::default().max_active_jobs)]
     pub max_jobs: usize,
+    /// Seconds a connection may take to send a request line and headers, or stay idle between
+    /// requests; also the longest pause within a body (408). The connection is then closed.
+    #[arg(long, env = "SPINDLE_HEADER_TIMEOUT", default_value_t = Timeouts::default().header.as_secs_f64())]
+    pub header_timeout_s: f64,
+    /// Seconds from a request's headers to its answer, body included (asset uploads too);
+    /// past it the answer is 408 and the connection is closed.
+    #[arg(long, env = "SPINDLE_REQUEST_TIMEOUT", default_value_t = Timeouts::default().request.as_secs_f64())]
+    pub request_timeout_s: f64,
+    /// Most client connections open at once; lowered to fit the open-file limit (less 64
+    /// descriptors kept for the coordinator itself). Further connections wait to be accepted.
+    #[arg(long, env = "SPINDLE_MAX_CONNECTIONS", default_value_t = DEFAULT_MAX_CONNECTIONS)]
+    pub max_connections: usize,
+    /// Requests a second (on average; bursts of twice that) each client address may send to
+    /// the client routes; past it, 429 with Retry-After.
+    #[arg(long, env = "SPINDLE_CLIENT_RATE", default_value_t = DEFAULT_CLIENT_RATE_PER_S)]
+    pub client_rate_per_s: u32,
+    /// Leases one worker may hold at once; a lease request past it gets 429 with Retry-After.
+    #[arg(long, env = "SPINDLE_MAX_LEASES_PER_WORKER", default_value_t = DEFAULT_MAX_LEASES_PER_WORKER)]
+    pub max_leases_per_worker: usize,
+    /// The token flags whose value came from the command line (see [`Args::from_process`]).
+    #[arg(skip)]
+    pub tokens_in_argv: Vec<&'static str>,
+}
+
+/// Shortest token accepted for a non-loopback address (bytes).
+pub const MIN_TOKEN_BYTES: usize = 16;
+
+/// Default of `--client-rate-per-s`.
+pub const DEFAULT_CLIENT_RATE_PER_S: u32 = 50;
+/// Default of `--max-leases-per-worker` (a worker renders one tile at a time).
+pub const DEFAULT_MAX_LEASES_PER_WORKER: usize = 4;
+
+/// Default of `--max-connections`.
+pub const DEFAULT_MAX_CONNECTIONS: usize = 1024;
+
+/// How long a connection may take over each part of a request (see [`crate::serve`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Timeouts {
+    /// Request line and headers; the idle time of a keep-alive connection; the longest pause
+    /// within a body.
+    pub header: Duration,
+    /// From the headers to the answer, body included.
+    pub request: Duration,
+}
+
+impl Default for Timeouts {
+    fn default() -> Self {
+        Timeouts {
+            header: Duration::from_secs(10),
+            request: Duration::from_secs(300),
+        }
+    }
+}
+
+impl Timeouts {
+    /// The longest a lease request may wait for work: half the request deadline, so the
+    /// answer (204) always comes before the 408.
+    pub fn long_poll_cap(&self) -> Duration {
+        self.request / 2
+    }
 }
 
 /// A checked coordinator configuration.
@@ -62,6 +124,14 @@ pub struct Config {
     /// so workers that kept rendering can still report.
     pub restart_grace: Duration,
     pub limits: Limits,
+    /// Deadlines of a connection's requests.
+    pub timeouts: Timeouts,
+    /// Most connections open at once (lowered at start to fit the open-file limit).
+    pub max_connections: usize,
+    /// Requests a second each client address may send to client routes (bursts of twice).
+    pub client_rate_per_s: std::num::NonZeroU32,
+    /// Leases one worker may hold at once.
+    pub max_leases_per_worker: usize,
 }
 
 impl Config {
@@ -74,25 +144,70 @@ impl Config {
             lease_ttl: Duration::from_secs(30),
             restart_grace: Duration::from_secs(30),
             limits: Limits::default(),
+            timeouts: Timeouts::default(),
+            max_connections: DEFAULT_MAX_CONNECTIONS,
+            client_rate_per_s: std::num::NonZeroU32::new(DEFAULT_CLIENT_RATE_PER_S)
+                .expect("a positive default"),
+            max_leases_per_worker: DEFAULT_MAX_LEASES_PER_WORKER,
         }
     }
 
-    /// Refuses to serve a non-loopback address without both tokens.
+    /// Refuses equal client and worker tokens, and a non-loopback address without both tokens
+    /// or with a token shorter than [`MIN_TOKEN_BYTES`].
     pub fn check_listen_address(&self, addr: SocketAddr) -> anyhow::Result<()> {
-        if !addr.ip().is_loopback() && (self.client_token.is_none() || self.worker_token.is_none())
+        if let (Some(client), Some(worker)) = (&self.client_token, &self.worker_token)
+            && client == worker
         {
+            bail!(
+                "the client and worker tokens are equal: a worker could act as a client; \
+                 generate two (openssl rand -hex 32)"
+            );
+        }
+        if addr.ip().is_loopback() {
+            return Ok(());
+        }
+        let (Some(client), Some(worker)) = (&self.client_token, &self.worker_token) else {
             bail!(
                 "refusing to listen on {addr} without tokens: set SPINDLE_TOKEN and \
                  SPINDLE_WORKER_TOKEN (or --token-file / --worker-token-file), or listen on 127.0.0.1"
             );
+        };
+        for (flag, token) in [("--token", client), ("--worker-token", worker)] {
+            if token.len() < MIN_TOKEN_BYTES {
+                bail!(
+                    "{flag}: {} bytes is too short to listen on {addr}; a non-loopback address \
+                     needs tokens of at least {MIN_TOKEN_BYTES} bytes (openssl rand -hex 32)",
+                    token.len()
+                );
+            }
         }
         Ok(())
     }
 }
 
 impl Args {
+    /// The process's command line and environment, noting which tokens were given as
+    /// arguments (readable by anyone through `ps`), so [`Args::into_config`] can warn.
+    pub fn from_process() -> Args {
+        use clap::{CommandFactory, FromArgMatches};
+        let matches = Args::command().get_matches();
+        let mut args = Args::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+        for (id, flag) in [("token", "--token"), ("worker_token", "--worker-token")] {
+            if matches.value_source(id) == Some(clap::parser::ValueSource::CommandLine) {
+                args.tokens_in_argv.push(flag);
+            }
+        }
+        args
+    }
+
     /// Reads token files and checks values.
     pub fn into_config(self) -> anyhow::Result<Config> {
+        for flag in &self.tokens_in_argv {
+            tracing::warn!(
+                "{flag} on the command line is visible to every user of this machine (ps); \
+                 use the environment or {flag}-file"
+            );
+        }
         let client_token = token(self.token, self.token_file.as_deref(), "--token")?;
         let worker_token = token(
             self.worker_token,
@@ -103,6 +218,28 @@ impl Args {
             bail!("--lease-ttl-s: must be between 0.1 and 3600 seconds");
         }
         let lease_ttl = Duration::from_secs_f64(self.lease_ttl_s);
+        let seconds = |flag: &str, value: f64| {
+            if value.is_finite() && (0.01..=86_400.0).contains(&value) {
+                Ok(Duration::from_secs_f64(value))
+            } else {
+                Err(anyhow::anyhow!(
+                    "{flag}: must be between 0.01 and 86400 seconds, not {value}"
+                ))
+            }
+        };
+        let timeouts = Timeouts {
+            header: seconds("--header-timeout-s", self.header_timeout_s)?,
+            request: seconds("--request-timeout-s", self.request_timeout_s)?,
+        };
+        if self.max_connections == 0 {
+            bail!("--max-connections: must be at least 1");
+        }
+        let Some(client_rate_per_s) = std::num::NonZeroU32::new(self.client_rate_per_s) else {
+            bail!("--client-rate-per-s: must be at least 1");
+        };
+        if self.max_leases_per_worker == 0 {
+            bail!("--max-leases-per-worker: must be at least 1");
+        }
         let limits = Limits {
             max_active_jobs: self.max_jobs,
             ..Limits::default()
@@ -114,25 +251,40 @@ impl Args {
             lease_ttl,
             restart_grace: lease_ttl,
             limits,
+            timeouts,
+            max_connections: self.max_connections,
+            client_rate_per_s,
+            max_leases_per_worker: self.max_leases_per_worker,
         };
         config.check_listen_address(self.listen)?;
         Ok(config)
     }
 }
 
+/// A token from its value or its file. A file may end in one newline (`\n` or `\r\n`); nothing
+/// else is trimmed, so a token is used exactly as written or refused.
 fn token(value: Option<String>, file: Option<&Path>, flag: &str) -> anyhow::Result<Option<String>> {
-    let raw = match (value, file) {
+    let token = match (value, file) {
         (Some(v), _) => v,
-        (None, Some(path)) => std::fs::read_to_string(path)
-            .with_context(|| format!("reading {flag}-file {}", path.display()))?,
+        (None, Some(path)) => {
+            let raw = std::fs::read_to_string(path)
+                .with_context(|| format!("reading {flag}-file {}", path.display()))?;
+            let line = raw.strip_suffix('\n').unwrap_or(&raw);
+            line.strip_suffix('\r').unwrap_or(line).to_string()
+        }
         (None, None) => return Ok(None),
     };
-    let token = raw.trim().to_string();
     if token.is_empty() {
         bail!("{flag}: the token is empty");
     }
+    if token.bytes().any(|b| b.is_ascii_whitespace()) {
+        bail!(
+            "{flag}: the token contains whitespace (a file may only end in one newline); \
+             tokens are used exactly as written"
+        );
+    }
     if !token.bytes().all(|b| b.is_ascii_graphic()) {
-        bail!("{flag}: the token must be printable ASCII without spaces");
+        bail!("{flag}: the token must be printable ASCII");
     }
     Ok(Some(token))
 }
@@ -142,62 +294,117 @@ mod tests {
     use super::*;
     use clap::Parser;
 
+    const CLIENT: &str = "client-0123456789abcdef";
+    const WORKER: &str = "worker-0123456789abcdef";
+
+    fn parse(extra: &[&str]) -> anyhow::Result<Config> {
+        let mut argv = vec!["spindle-server", "--data", "/tmp/x"];
+        argv.extend_from_slice(extra);
+        Args::try_parse_from(argv).unwrap().into_config()
+    }
+
+    fn from_file(contents: &str) -> anyhow::Result<Config> {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("token");
+        std::fs::write(&path, contents).unwrap();
+        parse(&["--token-file", path.to_str().unwrap()])
+    }
+
     #[test]
     fn non_loopback_needs_both_tokens() {
-        let parse = |extra: &[&str]| {
-            let mut argv = vec!["spindle-server", "--data", "/tmp/x"];
-            argv.extend_from_slice(extra);
-            Args::try_parse_from(argv).unwrap().into_config()
-        };
         assert!(parse(&[]).is_ok(), "loopback default needs no tokens");
         let err = parse(&["--listen", "0.0.0.0:7878"])
             .unwrap_err()
             .to_string();
         assert!(err.contains("refusing to listen on 0.0.0.0:7878"), "{err}");
-        assert!(parse(&["--listen", "0.0.0.0:7878", "--token", "a"]).is_err());
+        assert!(parse(&["--listen", "0.0.0.0:7878", "--token", CLIENT]).is_err());
         let ok = parse(&[
             "--listen",
             "0.0.0.0:1",
             "--token",
-            "a",
+            CLIENT,
             "--worker-token",
-            "b",
+            WORKER,
         ])
         .unwrap();
-        assert_eq!(ok.client_token.as_deref(), Some("a"));
+        assert_eq!(ok.client_token.as_deref(), Some(CLIENT));
     }
 
     #[test]
-    fn token_file_is_read_and_trimmed() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("token");
-        std::fs::write(&path, "s3cret\n").unwrap();
-        let args = Args::try_parse_from([
-            "spindle-server",
-            "--data",
-            "/tmp/x",
-            "--token-file",
-            path.to_str().unwrap(),
-        ])
-        .unwrap();
-        assert_eq!(
-            args.into_config().unwrap().client_token.as_deref(),
-            Some("s3cret")
-        );
-        std::fs::write(&path, "  \n").unwrap();
-        let args = Args::try_parse_from([
-            "spindle-server",
-            "--data",
-            "/tmp/x",
-            "--token-file",
-            path.to_str().unwrap(),
-        ])
-        .unwrap();
+    fn non_loopback_needs_long_tokens() {
+        let short = "a".repeat(MIN_TOKEN_BYTES - 1);
+        for (client, worker, flag) in [
+            (short.as_str(), WORKER, "--token:"),
+            (CLIENT, short.as_str(), "--worker-token:"),
+        ] {
+            let argv = [
+                "--listen",
+                "0.0.0.0:1",
+                "--token",
+                client,
+                "--worker-token",
+                worker,
+            ];
+            let err = parse(&argv).unwrap_err().to_string();
+            assert!(err.starts_with(flag), "{err}");
+            assert!(err.contains("at least 16 bytes"), "{err}");
+        }
+        // On loopback a short token is allowed (the local farm, tests).
+        assert!(parse(&["--token", "a", "--worker-token", "b"]).is_ok());
+    }
+
+    #[test]
+    fn client_and_worker_tokens_must_differ() {
+        for listen in ["127.0.0.1:1", "0.0.0.0:1"] {
+            let argv = [
+                "--listen",
+                listen,
+                "--token",
+                CLIENT,
+                "--worker-token",
+                CLIENT,
+            ];
+            let err = parse(&argv).unwrap_err().to_string();
+            assert!(err.contains("tokens are equal"), "{listen}: {err}");
+        }
+    }
+
+    #[test]
+    fn a_token_file_may_end_in_one_newline_and_nothing_else() {
+        let token = |contents: &str| from_file(contents).map(|c| c.client_token.unwrap());
+        assert_eq!(token("s3cret\n").unwrap(), "s3cret");
+        assert_eq!(token("s3cret\r\n").unwrap(), "s3cret");
+        assert_eq!(token("s3cret").unwrap(), "s3cret");
+        for bad in ["s3cret \n", " s3cret", "s3cret\n\n", "s3cret\t", "s3 cret"] {
+            let err = token(bad).unwrap_err().to_string();
+            assert!(err.contains("whitespace"), "{bad:?}: {err}");
+        }
         assert!(
-            args.into_config()
+            token("  \n")
                 .unwrap_err()
                 .to_string()
-                .contains("empty")
+                .contains("whitespace")
         );
+        assert!(token("\n").unwrap_err().to_string().contains("empty"));
+    }
+
+    #[test]
+    fn a_token_value_is_not_trimmed() {
+        let err = parse(&["--token", "s3cret "]).unwrap_err().to_string();
+        assert!(err.contains("whitespace"), "{err}");
+    }
+
+    #[test]
+    fn deadlines_are_checked() {
+        let ok = parse(&["--header-timeout-s", "0.3", "--request-timeout-s", "2"]).unwrap();
+        assert_eq!(ok.timeouts.header, Duration::from_millis(300));
+        assert_eq!(ok.timeouts.request, Duration::from_secs(2));
+        for flag in ["--header-timeout-s", "--request-timeout-s"] {
+            for bad in ["0", "NaN", "1e9"] {
+                let err = parse(&[flag, bad]).unwrap_err().to_string();
+                assert!(err.starts_with(flag), "{err}");
+            }
+        }
+        assert!(parse(&["--max-connections", "0"]).is_err());
     }
 }

@@ -19,6 +19,8 @@ pub mod extract;
 pub mod jobs;
 pub mod lease;
 pub mod limits;
+pub mod serve;
+pub mod throttle;
 pub mod tile_store;
 
 use std::future::Future;
@@ -29,7 +31,7 @@ use axum::Router;
 use tokio::sync::Notify;
 use tokio_util::sync::CancellationToken;
 
-pub use config::{Args, Config};
+pub use config::{Args, Config, Timeouts};
 pub use limits::Limits;
 
 use assets::AssetStore;
@@ -47,6 +49,7 @@ struct Shared {
     ledger: Mutex<Ledger>,
     assets: AssetStore,
     tiles: TileStore,
+    client_rate: throttle::ClientRate,
     /// Woken when tiles may have become available (a job submitted, a tile failed).
     work: Notify,
     shutdown: CancellationToken,
@@ -71,12 +74,14 @@ impl AppState {
         })
         .await??;
         let jobs = ledger.jobs.len();
+        let client_rate = throttle::ClientRate::new(config.client_rate_per_s);
         let state = AppState {
             inner: Arc::new(Shared {
                 config,
                 ledger: Mutex::new(ledger),
                 assets,
                 tiles,
+                client_rate,
                 work: Notify::new(),
                 shutdown: CancellationToken::new(),
             }),
@@ -101,6 +106,10 @@ impl AppState {
 
     pub(crate) fn assets(&self) -> &AssetStore {
         &self.inner.assets
+    }
+
+    pub(crate) fn client_rate(&self) -> &throttle::ClientRate {
+        &self.inner.client_rate
     }
 
     pub(crate) fn tile_store(&self) -> &TileStore {
@@ -195,12 +204,9 @@ pub async fn run(
     let router = app(state.clone());
     tracing::info!(%addr, "spindle-server listening");
     let draining = state.clone();
-    axum::serve(listener, router)
-        .with_graceful_shutdown(async move {
-            shutdown.await;
-            tracing::info!("shutting down");
-            draining.begin_shutdown();
-        })
-        .await?;
-    Ok(())
+    let shutdown = async move {
+        shutdown.await;
+        draining.begin_shutdown();
+    };
+    serve::serve(state.config(), listener, router, shutdown).await
 }

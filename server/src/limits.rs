@@ -39,7 +39,7 @@ impl Default for Limits {
             max_width: 16_384,
             max_height: 16_384,
             max_pixels: 64 << 20,
-            max_spp: 1 << 16,
+            max_spp: spindle_common::validate::MAX_SPP,
             max_triangles: 20_000_000,
             min_tile_size: 4,
             max_tile_size: 256,

@@ -2,7 +2,6 @@
 //! until Ctrl-C or SIGTERM.
 
 use anyhow::Context;
-use clap::Parser;
 use spindle_server::Args;
 
 #[tokio::main]
@@ -13,7 +12,7 @@ async fn main() -> anyhow::Result<()> {
                 .unwrap_or_else(|_| "info,tower_http=info".into()),
         )
         .init();
-    let args = Args::parse();
+    let args = Args::from_process();
     let listen = args.listen;
     let config = args.into_config()?;
     let listener = tokio::net::TcpListener::bind(listen)

@@ -30,6 +30,10 @@ async fn tokens_guard_their_routes() {
         (Method::GET, "/v1/jobs", Some(WORKER)), // a worker token is not a client token
         (Method::POST, "/v1/workers", Some(CLIENT)), // and the other way round
         (Method::POST, "/v1/workers/1/lease", None),
+        // The token exactly: no trimming, no prefix.
+        (Method::GET, "/v1/jobs", Some(" client-secret")),
+        (Method::GET, "/v1/jobs", Some("client-secret ")),
+        (Method::GET, "/v1/jobs", Some("client-secre")),
     ] {
         let (status, body) = c.send(method.clone(), uri, token, "{}").await;
         assert_eq!(status, StatusCode::UNAUTHORIZED, "{method} {uri} {token:?}");
@@ -120,6 +124,26 @@ async fn bad_input_gets_a_clear_4xx_and_leaves_existing_jobs_untouched() {
             }),
             StatusCode::BAD_REQUEST,
             "scene.objects[0].material.medium.sigma_t",
+        ),
+        (
+            "camera beyond the scene's extent",
+            with_scene(&|b| b["scene"]["camera"]["position"][0] = json!(1.7e308)),
+            StatusCode::BAD_REQUEST,
+            "scene.camera.position[0]: must be within ±1e6",
+        ),
+        (
+            "scale beyond the scene's extent",
+            with_scene(&|b| {
+                b["scene"]["objects"][0]["transform"] = json!({"scale": [1e200, 1e200, 1e200]})
+            }),
+            StatusCode::BAD_REQUEST,
+            "scene.objects[0].transform.scale[0]: must be between",
+        ),
+        (
+            "spp beyond the one bound",
+            with_scene(&|b| b["scene"]["film"]["spp"] = json!(65537)),
+            StatusCode::BAD_REQUEST,
+            "scene.film.spp: must be <= 65536",
         ),
         (
             "too many triangles",

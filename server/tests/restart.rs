@@ -58,6 +58,7 @@ async fn a_restarted_coordinator_resumes_without_losing_or_doubling_tiles() {
 
     let mut cfg = config(dir.path());
     cfg.restart_grace = Duration::from_secs(60);
+    cfg.max_leases_per_worker = 8; // one worker takes every remaining tile below
     let c = Coordinator::open(cfg).await;
     let info = c.job(job.id).await;
     assert_eq!(info.state, JobState::Running);

@@ -337,9 +337,22 @@ fn camera_values_are_checked() {
             s.camera.position = [0.0, 1.0, 1e308];
             s.camera.look_at = [0.0, 1.0, -1e308];
         },
-        "camera.look_at",
-        "overflows",
+        "camera.position[2]",
+        "within ±1e6",
     );
+    rejects(
+        "/camera/position/0",
+        json!(1.7e308),
+        "camera.position[0]",
+        "within ±1e6",
+    );
+    rejects(
+        "/camera/look_at/1",
+        json!(-1.000001e6),
+        "camera.look_at[1]",
+        "within ±1e6",
+    );
+    assert!(with("/camera/position/0", json!(1e6)).is_ok());
     rejects("/camera/up", json!([0, 0, 0]), "camera.up", "zero");
     rejects("/camera/up", json!([0, 0, 1]), "camera.up", "parallel");
     rejects("/camera/up", json!([0, 0, -3]), "camera.up", "parallel");
@@ -355,6 +368,9 @@ fn film_values_are_checked() {
     rejects("/film/width", json!(16385), "film.width", "<= 16384");
     assert!(with("/film/height", json!(16384)).is_ok());
     rejects("/film/spp", json!(0), "film.spp", ">= 1");
+    // One bound for the CLI, the renderer and the coordinator.
+    rejects("/film/spp", json!(65537), "film.spp", "<= 65536");
+    assert!(with("/film/spp", json!(65536)).is_ok());
 }
 
 #[test]
@@ -373,6 +389,24 @@ fn light_values_are_checked() {
     );
     rejects("/lights/1/radius", json!(0), "lights[1].radius", "> 0");
     rejects("/lights/1/radius", json!(-1), "lights[1].radius", "> 0");
+    rejects(
+        "/lights/1/radius",
+        json!(2e6),
+        "lights[1].radius",
+        "between",
+    );
+    rejects(
+        "/lights/0/position/2",
+        json!(1e7),
+        "lights[0].position[2]",
+        "within ±1e6",
+    );
+    rejects(
+        "/lights/1/center/0",
+        json!(-1e300),
+        "lights[1].center[0]",
+        "within ±1e6",
+    );
     assert!(with("/lights/0/intensity", json!([0, 0, 0])).is_ok());
 }
 
@@ -439,6 +473,35 @@ fn transform_values_are_checked() {
     );
     // A negative scale mirrors the object; that is allowed.
     assert!(with("/objects/1/transform/scale/0", json!(-1)).is_ok());
+    // Magnitudes: the scene must fit where f32 boxes and f64 solves stay meaningful.
+    for (value, word) in [(1e200, "between"), (-1e7, "between"), (1e-7, "between")] {
+        rejects(
+            "/objects/1/transform/scale/0",
+            json!(value),
+            "objects[1].transform.scale[0]",
+            word,
+        );
+    }
+    assert!(with("/objects/1/transform/scale/0", json!(1e6)).is_ok());
+    assert!(with("/objects/1/transform/scale/0", json!(-1e-6)).is_ok());
+    rejects(
+        "/objects/1/transform/translate/1",
+        json!(2e6),
+        "objects[1].transform.translate[1]",
+        "within ±1e6",
+    );
+    rejects(
+        "/objects/1/shape/radius",
+        json!(1e7),
+        "objects[1].shape.radius",
+        "between",
+    );
+    rejects(
+        "/objects/2/shape/radius",
+        json!(1e-9),
+        "objects[2].shape.radius",
+        "between",
+    );
 }
 
 #[test]

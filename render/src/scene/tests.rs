@@ -125,6 +125,46 @@ fn camera_and_film_errors_are_named() {
 }
 
 #[test]
+fn extreme_magnitudes_are_errors_not_panics() {
+    // Descriptions that never went through JSON validation: `build` must still refuse them.
+    let ico = |transform: &str| {
+        format!(
+            r#"{{ "shape": {{ "type": "icosphere", "radius": 1, "subdivisions": 1 }},
+                 "transform": {transform}, {GLASS} }}"#
+        )
+    };
+    let e = error(
+        &ico(r#"{ "scale": [1e200, 1e200, 1e200] }"#),
+        "",
+        &Assets::new(),
+    );
+    assert!(e.starts_with("objects[0].transform.scale[0]: "), "{e}");
+    let e = error(
+        &ico(r#"{ "translate": [0, 0, 1e300] }"#),
+        "",
+        &Assets::new(),
+    );
+    assert!(e.starts_with("objects[0].transform.translate[2]: "), "{e}");
+    let mut d = scene_json("", "");
+    d.camera.position = [1.7e308, 0.0, 5.0];
+    let e = Scene::build(&d, &Assets::new()).unwrap_err().to_string();
+    assert!(e.starts_with("camera.position[0]: "), "{e}");
+    // An OBJ's own coordinates are only seen here: out of the scene's extent after the
+    // transform is an error naming the transform.
+    let huge = Assets::from([(
+        "huge.obj".to_string(),
+        b"v 0 0 0\nv 1e200 0 0\nv 0 1 0\nf 1 2 3\n".to_vec(),
+    )]);
+    let e = error(
+        &format!(r#"{{ "shape": {{ "type": "obj", "path": "huge.obj" }}, {GLASS} }}"#),
+        "",
+        &huge,
+    );
+    assert!(e.starts_with("objects[0].transform: "), "{e}");
+    assert!(e.contains("±1e6"), "{e}");
+}
+
+#[test]
 fn open_dielectric_mesh_is_a_warning_and_triangles_are_located() {
     let assets = Assets::from([("open.obj".to_string(), OPEN_OBJ.as_bytes().to_vec())]);
     let objects = format!(

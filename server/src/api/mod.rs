@@ -14,7 +14,6 @@ mod service;
 mod work;
 
 use std::sync::Arc;
-use std::time::Duration;
 
 use axum::extract::DefaultBodyLimit;
 use axum::http::{Method, StatusCode, Uri};
@@ -29,6 +28,7 @@ use utoipa_axum::router::{OpenApiRouter, UtoipaMethodRouter};
 use crate::AppState;
 use crate::auth::{self, Role};
 use crate::error::Error;
+use crate::throttle;
 
 /// Documented handlers (one `routes!` each) with the role that may call them.
 type Declared = Vec<(Role, UtoipaMethodRouter<AppState>)>;
@@ -41,7 +41,12 @@ type Declared = Vec<(Role, UtoipaMethodRouter<AppState>)>;
         description = "Jobs, assets, leases and tiles of a spindle render farm. Client routes \
                        take `Authorization: Bearer $SPINDLE_TOKEN`, worker routes \
                        `Authorization: Bearer $SPINDLE_WORKER_TOKEN`. Every error body is \
-                       `{\"error\": \"...\"}`."
+                       `{\"error\": \"...\"}`. Any route answers 408 (and closes the \
+                       connection) when its request outlasts the request deadline (300 s by \
+                       default) or its body pauses past the header deadline (10 s); headers \
+                       not complete within the header deadline close the connection. Client \
+                       routes answer 429 past --client-rate-per-s requests a second per \
+                       address (50, bursts of 100); every 429 and 503 carries Retry-After."
     ),
     modifiers(&BearerTokens)
 )]
@@ -107,7 +112,13 @@ fn routes_and_document(state: &AppState) -> (Router<AppState>, utoipa::openapi::
     for (role, (schemas, mut paths, handler)) in declared {
         require_token(&mut paths, role);
         let auth = axum::middleware::from_fn_with_state((state.clone(), role), auth::require);
-        api = api.routes((schemas, paths, handler.layer(auth)));
+        let handler = if role == Role::Client {
+            let rate = axum::middleware::from_fn_with_state(state.clone(), throttle::client_rate);
+            handler.layer(auth).layer(rate)
+        } else {
+            handler.layer(auth)
+        };
+        api = api.routes((schemas, paths, handler));
     }
     api.split_for_parts()
 }
@@ -125,19 +136,36 @@ async fn wrong_method(method: Method, uri: Uri) -> Response {
     (StatusCode::METHOD_NOT_ALLOWED, body).into_response()
 }
 
+/// The answer to a request that outlived the request deadline.
+async fn request_deadline(_: tower::BoxError) -> Error {
+    Error::Timeout("request: not completed within the request deadline".into())
+}
+
 /// The coordinator's router: every declared route behind its role's token, JSON answers for
-/// unknown paths and methods, then the body limit, the body timeout and request tracing.
+/// unknown paths and methods, then the body limit, the request deadline (408) and request
+/// tracing.
 pub fn router(state: AppState) -> Router {
     let max_json_bytes = state.config().limits.max_json_bytes;
+    let timeouts = state.config().timeouts;
     let (routes, document) = routes_and_document(&state);
     routes
         .layer(Extension(Arc::new(document)))
         .fallback(no_route)
         .method_not_allowed_fallback(wrong_method)
         .layer(DefaultBodyLimit::max(max_json_bytes))
+        // A body that pauses longer than the header deadline is abandoned (408)…
         .layer(tower_http::timeout::RequestBodyTimeoutLayer::new(
-            Duration::from_secs(60),
+            timeouts.header,
         ))
+        // …and so is a request whose body and handler together outlast the request deadline,
+        // however steadily its bytes trickle in.
+        .layer(
+            tower::ServiceBuilder::new()
+                .layer(axum::error_handling::HandleErrorLayer::new(
+                    request_deadline,
+                ))
+                .layer(tower::timeout::TimeoutLayer::new(timeouts.request)),
+        )
         .layer(tower_http::trace::TraceLayer::new_for_http())
         .with_state(state)
 }

@@ -22,6 +22,7 @@ use crate::error::Error;
 use crate::extract::{ApiPath, JsonBody, RawBody, parse_json};
 use crate::lease::UploadPlan;
 use crate::limits::Limits;
+use crate::throttle;
 
 pub(super) fn routes(limits: &Limits) -> Declared {
     vec![
@@ -60,7 +61,8 @@ async fn register_worker(
 #[utoipa::path(post, path = "/v1/workers/{id}/lease", params(("id" = u64, Path, description = "worker id")),
     request_body(content = Option<LeaseRequest>, description = "optional; an empty body means the defaults"),
     responses((status = 200, body = Lease), (status = 204, description = "no work right now"),
-              (status = 404, body = ApiError)))]
+              (status = 404, body = ApiError),
+              (status = 429, body = ApiError, description = "the worker holds --max-leases-per-worker leases (Retry-After)")))]
 async fn lease(
     State(state): State<AppState>,
     ApiPath(worker): ApiPath<u64>,
@@ -74,7 +76,8 @@ async fn lease(
     let wait = request
         .wait_ms
         .unwrap_or(MAX_LEASE_WAIT_MS)
-        .min(MAX_LEASE_WAIT_MS);
+        .min(MAX_LEASE_WAIT_MS)
+        .min(state.config().timeouts.long_poll_cap().as_millis() as u64);
     let deadline = Instant::now() + Duration::from_millis(wait);
     loop {
         let notified = state.work_notified();
@@ -82,6 +85,7 @@ async fn lease(
         notified.as_mut().enable();
         let (lease, next_expiry) = {
             let mut ledger = state.ledger();
+            throttle::check_lease_cap(&ledger, worker, state.config().max_leases_per_worker)?;
             (
                 ledger.try_lease(worker, Instant::now())?,
                 ledger.next_expiry(),
