@@ -131,7 +131,15 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
     drop(files);
     let result = crate::local_farm::render(workers, |api| async move {
         let edit = |s: &mut SceneDescription| args.edit(s);
-        crate::submit::submit_scene_file(&api, &args.scene, Some(&edit), args.tile_size, 0).await
+        crate::submit::submit_scene_file(
+            &api,
+            &args.scene,
+            Some(&edit),
+            crate::submit::Check::AlreadyBuilt,
+            args.tile_size,
+            0,
+        )
+        .await
     })
     .await?;
     let mut image = Image::from_exr_bytes(&result.exr)

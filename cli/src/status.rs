@@ -40,7 +40,7 @@ pub async fn run(api: &Api, args: &StatusArgs) -> Result<()> {
                     println!(
                         "{:>6}  {:<10} {:>5}  {:>13}  {:>9}  {:>7.1}s",
                         j.id,
-                        j.state.as_str(),
+                        state_label(j),
                         j.priority,
                         format!("{}/{}", j.tiles_done, j.tiles_total),
                         format!("{}x{}", j.width, j.height),
@@ -53,12 +53,21 @@ pub async fn run(api: &Api, args: &StatusArgs) -> Result<()> {
     Ok(())
 }
 
+/// The job's state, with why nothing moves when no worker is connected.
+fn state_label(j: &JobInfo) -> String {
+    if !j.state.is_finished() && j.workers_live == 0 {
+        format!("{} — no workers connected", j.state.as_str())
+    } else {
+        j.state.as_str().to_string()
+    }
+}
+
 /// A few lines about one job.
 fn describe(j: &JobInfo) -> String {
     let mut s = format!(
         "job {}: {}\n  image     {}x{} in tiles of {} px, priority {}\n  tiles     {}/{} done\n  elapsed   {:.1} s\n",
         j.id,
-        j.state.as_str(),
+        state_label(j),
         j.width,
         j.height,
         j.tile_size,
@@ -73,5 +82,86 @@ fn describe(j: &JobInfo) -> String {
     if let Some(e) = &j.error {
         s.push_str(&format!("  error     {e}\n"));
     }
+    if !j.recent_errors.is_empty() {
+        s.push_str("  tile errors (newest last):\n");
+        for e in &j.recent_errors {
+            s.push_str(&format!(
+                "    {}  tile {} on {} ({}): {}\n",
+                utc_time(e.at_ms),
+                e.tile,
+                e.worker,
+                e.worker_id,
+                e.message
+            ));
+        }
+    }
     s
+}
+
+/// `HH:MM:SS` UTC of a time in ms since the Unix epoch.
+fn utc_time(ms: i64) -> String {
+    let s = ms.div_euclid(1000).rem_euclid(86_400);
+    format!("{:02}:{:02}:{:02}Z", s / 3600, s / 60 % 60, s % 60)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use spindle_common::protocol::{JobState, TileError};
+
+    fn job(state: JobState, workers_live: u32) -> JobInfo {
+        JobInfo {
+            id: 3,
+            state,
+            priority: 0,
+            width: 8,
+            height: 8,
+            tile_size: 8,
+            tiles_done: 0,
+            tiles_total: 1,
+            elapsed_s: 0.0,
+            eta_s: None,
+            error: None,
+            recent_errors: Vec::new(),
+            workers_live,
+            stats: Default::default(),
+        }
+    }
+
+    #[test]
+    fn a_waiting_job_says_when_no_worker_is_connected() {
+        let text = describe(&job(JobState::Queued, 0));
+        assert!(
+            text.starts_with("job 3: queued — no workers connected\n"),
+            "{text}"
+        );
+        let text = describe(&job(JobState::Queued, 2));
+        assert!(text.starts_with("job 3: queued\n"), "{text}");
+        let text = describe(&job(JobState::Done, 0));
+        assert!(text.starts_with("job 3: done\n"), "{text}");
+    }
+
+    #[test]
+    fn tile_errors_are_listed_with_worker_and_time() {
+        let mut j = job(JobState::Failed, 1);
+        j.error = Some("tile 0 cannot be rendered".into());
+        j.recent_errors.push(TileError {
+            tile: 0,
+            worker_id: 4,
+            worker: "w1".into(),
+            at_ms: 3_723_000,
+            message: "the scene does not build: objects[0]: bad face".into(),
+        });
+        let text = describe(&j);
+        assert!(
+            text.contains("  error     tile 0 cannot be rendered\n"),
+            "{text}"
+        );
+        assert!(
+            text.contains(
+                "    01:02:03Z  tile 0 on w1 (4): the scene does not build: objects[0]: bad face\n"
+            ),
+            "{text}"
+        );
+    }
 }

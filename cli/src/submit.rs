@@ -1,5 +1,9 @@
 //! `spindle submit SCENE.json [--wait]`: send a scene and its meshes to a coordinator.
 //!
+//! The scene is built here first, exactly as `spindle render --workers 0` builds it (meshes
+//! included), so a scene no worker could build is refused with the same message before
+//! anything is uploaded.
+//!
 //! Meshes are content-addressed: each OBJ file is hashed (blake3), the coordinator is asked
 //! which hashes it lacks, and only those are uploaded. The job itself is posted with an
 //! idempotency key, so the automatic retry of a submission whose answer was lost cannot create
@@ -36,7 +40,15 @@ pub struct SubmitArgs {
 /// Runs `spindle submit`: prints the job id on stdout; with `--wait`, fails unless the job ends
 /// `done`.
 pub async fn run(api: &Api, args: &SubmitArgs) -> Result<()> {
-    let job = submit_scene_file(api, &args.scene, None, args.tile_size, args.priority).await?;
+    let job = submit_scene_file(
+        api,
+        &args.scene,
+        None,
+        Check::Build,
+        args.tile_size,
+        args.priority,
+    )
+    .await?;
     println!("{}", job.id);
     if args.wait {
         let end = wait_for(api, job.id, Wait::default()).await?;
@@ -45,18 +57,32 @@ pub async fn run(api: &Api, args: &SubmitArgs) -> Result<()> {
     Ok(())
 }
 
+/// Whether [`submit_scene_file`] builds the scene before sending it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Check {
+    /// Build it with the renderer, as `render --workers 0` does, and refuse if it does not build.
+    Build,
+    /// The caller has just built this very scene.
+    AlreadyBuilt,
+}
+
 /// Reads the scene file and its meshes, uploads the meshes the coordinator lacks, and submits
 /// the job. `edit` may change the scene before it is sent (the local farm's `--spp`/`--seed`).
 pub async fn submit_scene_file(
     api: &Api,
     scene_path: &Path,
     edit: Option<&dyn Fn(&mut SceneDescription)>,
+    check: Check,
     tile_size: u32,
     priority: i32,
 ) -> Result<JobInfo> {
     let mut files = load_scene(scene_path)?;
     if let Some(edit) = edit {
         edit(&mut files.desc);
+    }
+    if check == Check::Build {
+        spindle_render::Scene::build(&files.desc, &files.assets)
+            .with_context(|| format!("invalid scene {}", scene_path.display()))?;
     }
     // Hash every mesh and upload the ones the coordinator has not seen.
     let mut table = BTreeMap::new();

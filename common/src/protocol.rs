@@ -125,7 +125,9 @@ pub enum JobState {
     Running,
     /// Every tile is in and the final EXR is written.
     Done,
-    /// A tile failed on three different workers (see `error`).
+    /// It cannot finish (see `error`): a tile failed deterministically, on three different
+    /// workers, or on every connected worker; too many tiles failed; the image could not be
+    /// assembled.
     Failed,
     /// Cancelled by a client.
     Cancelled,
@@ -183,8 +185,31 @@ pub struct JobInfo {
     pub eta_s: Option<f64>,
     /// Why the job failed.
     pub error: Option<String>,
+    /// The latest tile failures of this job, oldest first (at most [`RECENT_TILE_ERRORS`]).
+    pub recent_errors: Vec<TileError>,
+    /// Workers connected to the coordinator now (in a lease poll, holding a lease, or heard
+    /// from within one lease TTL): 0 means nobody will render a queued job until one connects.
+    pub workers_live: u32,
     /// Counters of the tiles received so far.
     pub stats: RenderStats,
+}
+
+/// How many tile failures a [`JobInfo`] keeps (the newest).
+pub const RECENT_TILE_ERRORS: usize = 5;
+
+/// One tile a worker could not render, as reported in [`JobInfo::recent_errors`].
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TileError {
+    /// The tile's index in the job.
+    pub tile: u32,
+    pub worker_id: u64,
+    /// The worker's name as it registered.
+    pub worker: String,
+    /// When the failure was reported, in ms since the Unix epoch.
+    pub at_ms: i64,
+    /// The worker's reason.
+    pub message: String,
 }
 
 /// All jobs, oldest first.
@@ -296,6 +321,10 @@ pub struct TileFailure {
     pub worker_id: u64,
     pub epoch: u64,
     pub reason: String,
+    /// The failure depends only on the job, not on the worker (the scene does not build, the
+    /// pixels overflow f32): no other worker can do better, so the job fails at once.
+    #[serde(default)]
+    pub deterministic: bool,
 }
 
 /// The canonical bytes of a tile's pixels: the rectangle (`x, y, width, height` as u32

@@ -29,15 +29,47 @@ impl TileRect {
 pub const LAYER_NAMES: [&str; 3] = ["total", "surface", "single_scatter"];
 
 /// Rendered pixels of one rectangle: for each layer in [`LAYER_NAMES`] order, RGB triples in
-/// row-major order (`(row * width + col) * 3 + channel`).
+/// row-major order (`(row * width + col) * 3 + channel`). Every value is a finite f32: JSON
+/// numbers beyond f32's range (which would become ±inf) are refused when a tile is read.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct TilePixels {
     pub rect: TileRect,
+    #[serde(deserialize_with = "finite_layer")]
     pub total: Vec<f32>,
+    #[serde(deserialize_with = "finite_layer")]
     pub surface: Vec<f32>,
+    #[serde(deserialize_with = "finite_layer")]
     pub single_scatter: Vec<f32>,
     pub stats: RenderStats,
+}
+
+/// Reads a layer, refusing a value that is not a finite f32 with its index and value. Each
+/// number is read as f64 and rounded to f32, as serde reads an f32, so values are unchanged.
+fn finite_layer<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<f32>, D::Error> {
+    struct Layer;
+    impl<'de> serde::de::Visitor<'de> for Layer {
+        type Value = Vec<f32>;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("an array of finite 32-bit floats")
+        }
+        fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Vec<f32>, A::Error> {
+            let mut values = Vec::with_capacity(seq.size_hint().unwrap_or(0).min(1 << 20));
+            while let Some(v) = seq.next_element::<f64>()? {
+                let rounded = v as f32;
+                if !rounded.is_finite() {
+                    return Err(serde::de::Error::custom(format_args!(
+                        "value {} is {v:e}, beyond the range of 32-bit floats (±{:e})",
+                        values.len(),
+                        f32::MAX
+                    )));
+                }
+                values.push(rounded);
+            }
+            Ok(values)
+        }
+    }
+    d.deserialize_seq(Layer)
 }
 
 impl TilePixels {
@@ -121,5 +153,34 @@ mod tests {
         let t = tiles[0];
         let (cx, cy) = (128, 64);
         assert!(t.x <= cx && cx <= t.x + t.width && t.y <= cy && cy <= t.y + t.height);
+    }
+
+    #[test]
+    fn pixels_beyond_f32_are_refused_with_their_index_and_finite_ones_kept_exactly() {
+        let rect = TileRect {
+            x: 0,
+            y: 0,
+            width: 1,
+            height: 1,
+        };
+        let mut tile = TilePixels::black(rect);
+        tile.total = vec![f32::MAX, f32::MIN_POSITIVE, f32::from_bits(1)];
+        tile.surface = vec![0.1, -0.0, 3.0e38];
+        let json = serde_json::to_string(&tile).unwrap();
+        let back: TilePixels = serde_json::from_str(&json).unwrap();
+        for (a, b) in tile.layers().iter().zip(back.layers()) {
+            let bits = |l: &[f32]| l.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(a), bits(b));
+        }
+
+        let mut value = serde_json::to_value(&tile).unwrap();
+        value["surface"][2] = serde_json::json!(1e39);
+        let err = serde_json::from_value::<TilePixels>(value)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("value 2 is 1e39, beyond the range of 32-bit floats"),
+            "{err}"
+        );
     }
 }

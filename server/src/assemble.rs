@@ -4,32 +4,60 @@
 //! Tiles are inserted in tile index order and the EXR writer's bytes depend only on the image,
 //! so the file does not depend on which worker rendered which tile or in what order tiles
 //! arrived. The header carries the film's settings and the summed render statistics
-//! (`spindle.stats.<counter>`), the same names `spindle render` writes. Everything here
-//! blocks; call it from `spawn_blocking`.
+//! (`spindle.stats.<counter>`), the same names `spindle render` writes.
+//!
+//! Assembly never fails a job whose tiles are all in: a stored tile found damaged (missing,
+//! truncated, altered) goes back to the queue to be rendered again, and any other error (I/O,
+//! a full disk) is retried with backoff until it passes; a restarted coordinator resumes. Only
+//! [`finish`] is async; the rest blocks and runs under `spawn_blocking`.
 
-use anyhow::Context;
+use std::time::Duration;
+
 use spindle_common::image::Image;
 use spindle_common::protocol::JobSpec;
 use spindle_common::stats::RenderStats;
 
-use crate::tile_store::TileStore;
+use crate::AppState;
+use crate::tile_store::{ReadError, TileStore};
 
-/// Reads the given finished tiles (`(index, hash)`, in index order) into a frame.
+/// First and longest pause before assembly is tried again after an error that may pass.
+const RETRY_FIRST: Duration = Duration::from_millis(250);
+const RETRY_MAX: Duration = Duration::from_secs(30);
+
+/// Why the final image could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum AssembleError {
+    /// These stored tiles (index, why) must be rendered again.
+    #[error("damaged tiles: {0:?}")]
+    Damaged(Vec<(u32, String)>),
+    /// Anything else; it may pass.
+    #[error(transparent)]
+    Transient(#[from] anyhow::Error),
+}
+
+/// Reads the given finished tiles (`(index, hash)`, in index order) into a frame; tiles that
+/// cannot be read back intact are left black and returned with the reason.
 pub fn frame(
     store: &TileStore,
     job: u64,
     spec: &JobSpec,
     tiles: &[(u32, String)],
-) -> anyhow::Result<Image> {
+) -> anyhow::Result<(Image, Vec<(u32, String)>)> {
     let film = &spec.scene.film;
     let mut image = Image::new(film.width, film.height);
+    let mut damaged = Vec::new();
     for (index, hash) in tiles {
-        let pixels = store.read(job, *index, hash)?;
-        image
-            .insert_tile(&pixels)
-            .with_context(|| format!("tile {index}"))?;
+        match store.read(job, *index, hash) {
+            Ok(pixels) => {
+                if let Err(e) = image.insert_tile(&pixels) {
+                    damaged.push((*index, format!("the stored result of tile {index}: {e}")));
+                }
+            }
+            Err(ReadError::Damaged(why)) => damaged.push((*index, why)),
+            Err(ReadError::Io(e)) => anyhow::bail!(e),
+        }
     }
-    Ok(image)
+    Ok((image, damaged))
 }
 
 /// The EXR header attributes of a finished job.
@@ -60,22 +88,81 @@ pub fn write_final(
     spec: &JobSpec,
     tiles: &[(u32, String)],
     stats: &RenderStats,
-) -> anyhow::Result<()> {
+) -> Result<(), AssembleError> {
     let expected = spindle_common::tile::split_centre_first(
         spec.scene.film.width,
         spec.scene.film.height,
         spec.tile_size,
     )
     .len();
-    anyhow::ensure!(
-        tiles.len() == expected,
-        "{} of {expected} tiles are in",
-        tiles.len()
-    );
-    let mut image = frame(store, job, spec, tiles)?;
+    if tiles.len() != expected {
+        let e = anyhow::anyhow!("{} of {expected} tiles are in", tiles.len());
+        return Err(AssembleError::Transient(e));
+    }
+    let (mut image, damaged) = frame(store, job, spec, tiles)?;
+    if !damaged.is_empty() {
+        return Err(AssembleError::Damaged(damaged));
+    }
     image.attributes.extend(attributes(spec, stats)?);
-    image.write_exr(store.image_path(job))?;
+    image
+        .write_exr(store.image_path(job))
+        .map_err(anyhow::Error::from)?;
     Ok(())
+}
+
+/// Writes the final image of job `id`, whose tiles are all in, and records the job done;
+/// damaged tiles go back to the queue instead, and other errors are retried with backoff. Ends
+/// early when the job is deleted or stops meanwhile.
+pub(crate) async fn finish(state: AppState, id: u64) {
+    let mut delay = RETRY_FIRST;
+    loop {
+        let prepared = {
+            let ledger = state.ledger();
+            ledger
+                .job(id)
+                .ok()
+                .filter(|job| !job.state.is_finished())
+                .map(|job| (job.spec.clone(), job.stats))
+                .and_then(|(spec, stats)| Some((spec, stats, ledger.done_tiles(id).ok()?)))
+        };
+        let Some((spec, stats, tiles)) = prepared else {
+            return; // Deleted or cancelled meanwhile.
+        };
+        let store = state.tile_store().clone();
+        let result =
+            tokio::task::spawn_blocking(move || write_final(&store, id, &spec, &tiles, &stats))
+                .await
+                .unwrap_or_else(|e| Err(AssembleError::Transient(e.into())));
+        match result {
+            Ok(()) => {
+                if let Err(e) = state.ledger().finish_assembly(id) {
+                    tracing::error!(job = id, error = %e, "recording the end of assembly failed");
+                }
+                break;
+            }
+            Err(AssembleError::Damaged(tiles)) => {
+                let requeued = state.ledger().requeue_damaged(id, &tiles);
+                match requeued {
+                    Ok(()) => state.work_available(),
+                    Err(e) => {
+                        tracing::error!(job = id, error = %e, "requeueing damaged tiles failed")
+                    }
+                }
+                break;
+            }
+            Err(AssembleError::Transient(e)) => {
+                tracing::error!(job = id, error = format!("{e:#}"), retry_in = ?delay, "assembly failed; retrying");
+                tokio::select! {
+                    _ = tokio::time::sleep(delay) => {}
+                    _ = state.shutdown_signal() => return,
+                }
+                delay = (delay * 2).min(RETRY_MAX);
+            }
+        }
+    }
+    if state.ledger().job(id).is_err() {
+        let _ = state.remove_job_files(id).await;
+    }
 }
 
 /// A PNG preview of the tiles received so far (black where none arrived yet).
@@ -85,5 +172,5 @@ pub fn preview_png(
     spec: &JobSpec,
     tiles: &[(u32, String)],
 ) -> anyhow::Result<Vec<u8>> {
-    Ok(frame(store, job, spec, tiles)?.to_png_preview_bytes()?)
+    Ok(frame(store, job, spec, tiles)?.0.to_png_preview_bytes()?)
 }

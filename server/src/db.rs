@@ -18,7 +18,8 @@ use spindle_common::protocol::JobState;
 use spindle_common::stats::RenderStats;
 
 /// Migrations, in order; entry `i` moves the schema from version `i` to `i + 1`.
-const MIGRATIONS: &[&str] = &[r#"
+const MIGRATIONS: &[&str] = &[
+    r#"
     CREATE TABLE jobs (
         id              INTEGER PRIMARY KEY AUTOINCREMENT,
         spec            TEXT    NOT NULL,   -- protocol::JobSpec as JSON
@@ -56,7 +57,10 @@ const MIGRATIONS: &[&str] = &[r#"
         reason     TEXT    NOT NULL,
         PRIMARY KEY (job_id, tile_index, worker_id)
     );
-"#];
+"#,
+    // When each failure was reported (0 for failures recorded before this column).
+    "ALTER TABLE tile_failures ADD COLUMN at_ms INTEGER NOT NULL DEFAULT 0;",
+];
 
 /// Opens (creating if needed) the database at `path` and brings its schema up to date.
 pub fn open(path: &Path) -> anyhow::Result<Connection> {
@@ -122,7 +126,10 @@ pub enum TileRowState {
 pub struct FailureRow {
     pub tile_index: u32,
     pub worker_id: u64,
+    /// The worker's registered name ("" if its row is gone).
+    pub worker_name: String,
     pub reason: String,
+    pub at_ms: i64,
 }
 
 /// Inserts a new job and returns its id.
@@ -211,26 +218,31 @@ pub fn load_tiles(conn: &Connection, job: u64) -> anyhow::Result<BTreeMap<u32, T
     Ok(tiles)
 }
 
-/// The recorded failures of a job's tiles.
+/// The recorded failures of a job's tiles, oldest first.
 pub fn load_failures(conn: &Connection, job: u64) -> anyhow::Result<Vec<FailureRow>> {
     let mut stmt = conn.prepare(
-        "SELECT tile_index, worker_id, reason FROM tile_failures WHERE job_id = ?1
-         ORDER BY tile_index, worker_id",
+        "SELECT f.tile_index, f.worker_id, COALESCE(w.name, ''), f.reason, f.at_ms
+         FROM tile_failures f LEFT JOIN workers w ON w.id = f.worker_id
+         WHERE f.job_id = ?1 ORDER BY f.at_ms, f.tile_index, f.worker_id",
     )?;
     let rows = stmt.query_map([job as i64], |r| {
         Ok(FailureRow {
             tile_index: r.get(0)?,
             worker_id: r.get::<_, i64>(1)? as u64,
-            reason: r.get(2)?,
+            worker_name: r.get(2)?,
+            reason: r.get(3)?,
+            at_ms: r.get(4)?,
         })
     })?;
     Ok(rows.collect::<Result<_, _>>()?)
 }
 
-/// Ids of every registered worker.
-pub fn load_workers(conn: &Connection) -> rusqlite::Result<Vec<u64>> {
-    let mut stmt = conn.prepare("SELECT id FROM workers")?;
-    let rows = stmt.query_map([], |r| Ok(r.get::<_, i64>(0)? as u64))?;
+/// Every registered worker: `(id, name, threads)`.
+pub fn load_workers(conn: &Connection) -> rusqlite::Result<Vec<(u64, String, u32)>> {
+    let mut stmt = conn.prepare("SELECT id, name, threads FROM workers")?;
+    let rows = stmt.query_map([], |r| {
+        Ok((r.get::<_, i64>(0)? as u64, r.get(1)?, r.get(2)?))
+    })?;
     rows.collect()
 }
 
@@ -327,14 +339,33 @@ pub fn record_failure(
     epoch: u64,
     worker: u64,
     reason: &str,
+    at_ms: i64,
 ) -> rusqlite::Result<()> {
     tx.execute(
-        "INSERT OR REPLACE INTO tile_failures (job_id, tile_index, worker_id, epoch, reason)
-         VALUES (?1, ?2, ?3, ?4, ?5)",
-        params![job as i64, index, worker as i64, epoch as i64, reason],
+        "INSERT OR REPLACE INTO tile_failures (job_id, tile_index, worker_id, epoch, reason, at_ms)
+         VALUES (?1, ?2, ?3, ?4, ?5, ?6)",
+        params![
+            job as i64,
+            index,
+            worker as i64,
+            epoch as i64,
+            reason,
+            at_ms
+        ],
     )?;
     tx.execute(
         "UPDATE tiles SET state = 'pending' WHERE job_id = ?1 AND tile_index = ?2",
+        params![job as i64, index],
+    )?;
+    Ok(())
+}
+
+/// Returns a finished tile to the queue (its stored result was damaged); the epoch is kept, so
+/// its next lease has a higher one.
+pub fn requeue_tile(tx: &Transaction<'_>, job: u64, index: u32) -> rusqlite::Result<()> {
+    tx.execute(
+        "UPDATE tiles SET state = 'pending', hash = NULL, stats = NULL
+         WHERE job_id = ?1 AND tile_index = ?2",
         params![job as i64, index],
     )?;
     Ok(())

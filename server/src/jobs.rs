@@ -6,12 +6,14 @@
 //! the write succeeded. A restarted coordinator rebuilds the ledger from the database with
 //! [`Ledger::load`]. Leasing, heartbeats, uploads and failures are in [`crate::lease`].
 
-use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
+use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
 use std::sync::Arc;
 use std::time::Duration;
 
 use rusqlite::Connection;
-use spindle_common::protocol::{JobInfo, JobSpec, JobState, SubmitJob};
+use spindle_common::protocol::{
+    JobInfo, JobSpec, JobState, RECENT_TILE_ERRORS, SubmitJob, TileError,
+};
 use spindle_common::stats::RenderStats;
 use spindle_common::tile::{TileRect, split_centre_first};
 use tokio::time::Instant;
@@ -23,15 +25,36 @@ use crate::error::Error;
 pub const TILE_FAILURE_LIMIT: usize = 3;
 /// Tiles a worker may fail in one job before it is kept off that job.
 pub const WORKER_STRIKE_LIMIT: usize = 3;
+/// Tile failures, over all tiles and workers, that fail a job: a job whose tiles keep failing
+/// on different workers is broken even if no single tile reached [`TILE_FAILURE_LIMIT`].
+pub const JOB_FAILURE_LIMIT: usize = 10;
 
 /// Every job and worker the coordinator knows, with the database they are stored in.
 pub struct Ledger {
     pub(crate) db: Connection,
     pub(crate) jobs: BTreeMap<u64, Job>,
-    pub(crate) workers: HashSet<u64>,
+    pub(crate) workers: HashMap<u64, Worker>,
     pub(crate) lease_ttl: Duration,
     /// Idempotency key → (job, hash of the request that created it).
     keys: HashMap<String, (u64, String)>,
+}
+
+/// One registered worker, as far as the coordinator can tell.
+pub struct Worker {
+    pub name: String,
+    pub threads: u32,
+    /// The worker counts as connected until then, unless it is in a lease poll: renewed by
+    /// every request it makes, by one lease TTL.
+    pub seen_until: Instant,
+    /// Lease long polls of this worker in progress.
+    pub polls: u32,
+}
+
+impl Worker {
+    /// Is the worker connected at `now`?
+    pub fn is_live(&self, now: Instant) -> bool {
+        self.polls > 0 || self.seen_until > now
+    }
 }
 
 /// One job.
@@ -56,6 +79,10 @@ pub struct Job {
     pub failed_by: HashMap<u32, BTreeSet<u64>>,
     /// Worker → tiles of this job it failed.
     pub strikes: HashMap<u64, BTreeSet<u32>>,
+    /// Tile failures recorded for this job, in total.
+    pub failures: usize,
+    /// The newest tile failures, oldest first, at most [`RECENT_TILE_ERRORS`].
+    pub recent_errors: VecDeque<TileError>,
     /// Every tile is in and the final image is being written.
     pub assembling: bool,
 }
@@ -117,6 +144,8 @@ impl Job {
             stats: RenderStats::default(),
             failed_by: HashMap::new(),
             strikes: HashMap::new(),
+            failures: 0,
+            recent_errors: VecDeque::new(),
             assembling: false,
         }
     }
@@ -131,8 +160,9 @@ impl Job {
         self.tiles_done as usize == self.tiles.len()
     }
 
-    /// The job as clients see it, at wall-clock time `now_ms`.
-    pub fn info(&self, now_ms: i64) -> JobInfo {
+    /// The job as clients see it, at wall-clock time `now_ms`, with `workers_live` workers
+    /// connected.
+    pub fn info(&self, now_ms: i64, workers_live: u32) -> JobInfo {
         let elapsed_ms = match self.started_ms {
             Some(start) => (self.finished_ms.unwrap_or(now_ms) - start).max(0),
             None => 0,
@@ -153,8 +183,18 @@ impl Job {
             elapsed_s,
             eta_s,
             error: self.error.clone(),
+            recent_errors: self.recent_errors.iter().cloned().collect(),
+            workers_live,
             stats: self.stats,
         }
+    }
+
+    /// Keeps `error` among the newest few.
+    pub(crate) fn remember_error(&mut self, error: TileError) {
+        if self.recent_errors.len() == RECENT_TILE_ERRORS {
+            self.recent_errors.pop_front();
+        }
+        self.recent_errors.push_back(error);
     }
 
     /// Returns every leased tile to the queue (the job stopped handing out work).
@@ -238,6 +278,14 @@ impl Ledger {
                 }
             }
             for failure in db::load_failures(&db, row.id)? {
+                job.failures += 1;
+                job.remember_error(TileError {
+                    tile: failure.tile_index,
+                    worker_id: failure.worker_id,
+                    worker: failure.worker_name.clone(),
+                    at_ms: failure.at_ms,
+                    message: failure.reason.clone(),
+                });
                 job.failed_by
                     .entry(failure.tile_index)
                     .or_default()
@@ -252,7 +300,19 @@ impl Ledger {
             }
             jobs.insert(row.id, job);
         }
-        let workers = db::load_workers(&db)?.into_iter().collect();
+        // Workers known before a restart get the same grace as their leases to come back.
+        let workers = db::load_workers(&db)?
+            .into_iter()
+            .map(|(id, name, threads)| {
+                let worker = Worker {
+                    name,
+                    threads,
+                    seen_until: now + grace,
+                    polls: 0,
+                };
+                (id, worker)
+            })
+            .collect();
         Ok(Ledger {
             db,
             jobs,
@@ -287,7 +347,7 @@ impl Ledger {
                     "Idempotency-Key {key:?} was already used for a different request (job {id})"
                 )));
             }
-            return Ok((self.job(*id)?.info(now), false));
+            return Ok((self.info(*id)?, false));
         }
         let active = self
             .jobs
@@ -314,8 +374,8 @@ impl Ledger {
         };
         let id = db::insert_job(&self.db, &row)?;
         let job = Job::new(id, Arc::new(new.spec), new.priority, now);
-        let info = job.info(now);
         self.jobs.insert(id, job);
+        let info = self.info(id)?;
         if let Some(key) = new.idempotency_key {
             self.keys.insert(key, (id, new.request_hash));
         }
@@ -328,17 +388,31 @@ impl Ledger {
         Ok((info, true))
     }
 
+    /// A job as clients see it now.
+    pub fn info(&self, id: u64) -> Result<JobInfo, Error> {
+        Ok(self
+            .job(id)?
+            .info(now_ms(), self.workers_live(Instant::now())))
+    }
+
     /// All jobs, oldest first.
     pub fn list(&self) -> Vec<JobInfo> {
         let now = now_ms();
-        self.jobs.values().map(|j| j.info(now)).collect()
+        let live = self.workers_live(Instant::now());
+        self.jobs.values().map(|j| j.info(now, live)).collect()
+    }
+
+    /// How many workers are connected at `now`.
+    pub fn workers_live(&self, now: Instant) -> u32 {
+        let live = self.workers.values().filter(|w| w.is_live(now)).count();
+        u32::try_from(live).unwrap_or(u32::MAX)
     }
 
     /// Cancels a job that has not finished; cancelling a cancelled job changes nothing.
     pub fn cancel(&mut self, id: u64) -> Result<JobInfo, Error> {
         let job = self.job(id)?;
         match job.state {
-            JobState::Cancelled => return Ok(job.info(now_ms())),
+            JobState::Cancelled => return self.info(id),
             JobState::Done | JobState::Failed => {
                 return Err(Error::Conflict(format!(
                     "job {id} is already {}",
@@ -355,7 +429,7 @@ impl Ledger {
         job.finished_ms = Some(now);
         job.drop_leases();
         tracing::info!(job = id, "job cancelled");
-        Ok(job.info(now))
+        self.info(id)
     }
 
     /// Forgets a job (its files are removed by the caller).
@@ -368,6 +442,27 @@ impl Ledger {
         Ok(())
     }
 
+    /// Ends a job that cannot finish: `failed` with `error`, its leases dropped.
+    pub(crate) fn fail_job(&mut self, id: u64, error: String) -> Result<(), Error> {
+        let job = self.job(id)?;
+        let (started, now) = (job.started_ms, now_ms());
+        db::set_job_state(
+            &self.db,
+            id,
+            JobState::Failed,
+            Some(&error),
+            started,
+            Some(now),
+        )?;
+        let job = self.job_mut(id)?;
+        tracing::error!(job = id, %error, "job failed");
+        job.state = JobState::Failed;
+        job.error = Some(error);
+        job.finished_ms = Some(now);
+        job.drop_leases();
+        Ok(())
+    }
+
     /// Checks that the database answers.
     pub fn check_database(&self) -> Result<(), Error> {
         self.db.query_row("SELECT 1", [], |_| Ok(()))?;
@@ -377,7 +472,13 @@ impl Ledger {
     /// Registers a worker.
     pub fn register_worker(&mut self, name: &str, threads: u32) -> Result<u64, Error> {
         let id = db::insert_worker(&self.db, name, threads, now_ms())?;
-        self.workers.insert(id);
+        let worker = Worker {
+            name: name.to_string(),
+            threads,
+            seen_until: Instant::now() + self.lease_ttl,
+            polls: 0,
+        };
+        self.workers.insert(id, worker);
         tracing::info!(worker = id, name, threads, "worker registered");
         Ok(id)
     }
@@ -409,27 +510,62 @@ impl Ledger {
         ids
     }
 
-    /// Records the end of assembly: the image is written (`Ok`), or it could not be.
-    pub fn finish_assembly(&mut self, id: u64, result: Result<(), String>) -> Result<(), Error> {
+    /// Records the end of assembly: the image is written and the job is done (unless it was
+    /// cancelled meanwhile).
+    pub fn finish_assembly(&mut self, id: u64) -> Result<(), Error> {
         let Ok(job) = self.job(id) else {
             return Ok(()); // Deleted meanwhile.
         };
-        let (state, error) = match result {
-            Ok(()) => (JobState::Done, None),
-            Err(e) => (
-                JobState::Failed,
-                Some(format!("assembling the image failed: {e}")),
-            ),
-        };
+        if job.state.is_finished() {
+            return Ok(());
+        }
         let now = now_ms();
         let started = job.started_ms;
-        db::set_job_state(&self.db, id, state, error.as_deref(), started, Some(now))?;
+        db::set_job_state(&self.db, id, JobState::Done, None, started, Some(now))?;
         let job = self.job_mut(id)?;
-        job.state = state;
-        job.error = error;
+        job.state = JobState::Done;
+        job.error = None;
         job.finished_ms = Some(now);
         job.assembling = false;
-        tracing::info!(job = id, state = state.as_str(), "job finished");
+        tracing::info!(job = id, state = "done", "job finished");
+        Ok(())
+    }
+
+    /// Puts finished tiles whose stored result turned out damaged (`(index, why)`) back in the
+    /// queue, to be rendered again; the job's statistics drop theirs.
+    pub fn requeue_damaged(&mut self, id: u64, damaged: &[(u32, String)]) -> Result<(), Error> {
+        self.job(id)?;
+        let tx = self.db.transaction()?;
+        for (index, _) in damaged {
+            db::requeue_tile(&tx, id, *index)?;
+        }
+        tx.commit()?;
+        let mut stats = RenderStats::default();
+        for row in db::load_tiles(&self.db, id)?.into_values() {
+            if let TileRowState::Done { stats: s, .. } = row.state {
+                stats.add(&s);
+            }
+        }
+        let at_ms = now_ms();
+        let job = self.job_mut(id)?;
+        for (index, why) in damaged {
+            let tile = &mut job.tiles[*index as usize];
+            if matches!(tile.status, TileStatus::Done { .. }) {
+                tile.status = TileStatus::Pending;
+                tile.worker = None;
+                job.tiles_done -= 1;
+            }
+            tracing::error!(job = id, tile = index, %why, "stored tile damaged; rendering it again");
+            job.remember_error(TileError {
+                tile: *index,
+                worker_id: 0,
+                worker: "coordinator".into(),
+                at_ms,
+                message: format!("{why}; rendering it again"),
+            });
+        }
+        job.stats = stats;
+        job.assembling = false;
         Ok(())
     }
 }

@@ -10,9 +10,15 @@
 //!   lease has lapsed, as long as nobody has been given the tile since. Once a tile is done, an
 //!   upload with the same pixel hash is acknowledged as a duplicate and one with a different
 //!   hash is refused (409) and logged as a determinism fault.
-//! - A worker that fails a tile is not given that tile again. A tile failed by
-//!   [`TILE_FAILURE_LIMIT`] different workers fails its job; a worker that failed
+//! - A worker that fails a tile is not given that tile again; a worker that failed
 //!   [`WORKER_STRIKE_LIMIT`] tiles of a job is given no more of that job's tiles.
+//! - A job fails, with the reason, when one of its tiles fails deterministically (the worker
+//!   says no worker could do better: the scene does not build, the pixels overflow f32), when a
+//!   tile failed on [`TILE_FAILURE_LIMIT`] different workers, when [`JOB_FAILURE_LIMIT`] tile
+//!   failures add up in the job, or when no connected worker may take a tile that failed (every
+//!   connected worker failed it or is kept off the job). With no worker connected at all, jobs
+//!   wait: there is nobody to judge by.
+//! - A worker is connected while it is in a lease poll, and for one lease TTL after any request.
 
 use spindle_common::protocol::{
     Heartbeat, HeartbeatAck, JobState, Lease, TileFailure, TileOutcome, TileUpload,
@@ -21,7 +27,10 @@ use tokio::time::Instant;
 
 use crate::db;
 use crate::error::Error;
-use crate::jobs::{Job, Ledger, TILE_FAILURE_LIMIT, TileStatus, WORKER_STRIKE_LIMIT, now_ms};
+use crate::jobs::{
+    JOB_FAILURE_LIMIT, Job, Ledger, TILE_FAILURE_LIMIT, TileStatus, WORKER_STRIKE_LIMIT, now_ms,
+};
+use spindle_common::protocol::TileError;
 
 /// What to do with an upload that passed the checks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -35,13 +44,110 @@ pub enum UploadPlan {
 impl Ledger {
     /// Checks a worker id.
     pub fn check_worker(&self, worker: u64) -> Result<(), Error> {
-        if self.workers.contains(&worker) {
+        if self.workers.contains_key(&worker) {
             Ok(())
         } else {
             Err(Error::NotFound(format!(
                 "worker {worker} is not registered (POST /v1/workers)"
             )))
         }
+    }
+
+    /// Notes that `worker` was heard from at `now` (unknown ids are ignored).
+    pub fn seen(&mut self, worker: u64, now: Instant) {
+        let ttl = self.lease_ttl;
+        if let Some(w) = self.workers.get_mut(&worker) {
+            w.seen_until = w.seen_until.max(now + ttl);
+        }
+    }
+
+    /// A lease long poll of `worker` begins; it counts as connected until [`Ledger::poll_ended`].
+    pub fn poll_started(&mut self, worker: u64, now: Instant) -> Result<(), Error> {
+        self.check_worker(worker)?;
+        self.seen(worker, now);
+        if let Some(w) = self.workers.get_mut(&worker) {
+            w.polls += 1;
+        }
+        Ok(())
+    }
+
+    /// A lease long poll of `worker` ended (answered, or the client went away).
+    pub fn poll_ended(&mut self, worker: u64, now: Instant) {
+        self.seen(worker, now);
+        if let Some(w) = self.workers.get_mut(&worker) {
+            w.polls = w.polls.saturating_sub(1);
+        }
+    }
+
+    /// Fails every active job that no connected worker can finish: a failed tile that every
+    /// connected worker has failed or is kept off, or every connected worker kept off the job.
+    /// With no worker connected, nothing is decided.
+    pub fn fail_stuck_jobs(&mut self, now: Instant) -> Result<(), Error> {
+        let mut live: Vec<u64> = self
+            .workers
+            .iter()
+            .filter(|(_, w)| w.is_live(now))
+            .map(|(&id, _)| id)
+            .collect();
+        if live.is_empty() {
+            return Ok(());
+        }
+        live.sort_unstable();
+        let mut stuck = Vec::new();
+        for job in self.jobs.values() {
+            if !job.is_active() || job.failed_by.is_empty() {
+                continue;
+            }
+            let kept_off = |w: &u64| {
+                job.strikes
+                    .get(w)
+                    .is_some_and(|tiles| tiles.len() >= WORKER_STRIKE_LIMIT)
+            };
+            if live.iter().all(kept_off) {
+                stuck.push((
+                    job.id,
+                    format!(
+                        "every connected worker ({}) failed {WORKER_STRIKE_LIMIT} tiles of this                          job and is kept off it; last error: {}",
+                        self.worker_names(&live),
+                        last_error(job, None)
+                    ),
+                ));
+                continue;
+            }
+            let mut failed: Vec<_> = job.failed_by.iter().collect();
+            failed.sort_unstable_by_key(|(index, _)| **index);
+            let blocked = failed.into_iter().find(|(index, by)| {
+                job.tiles[**index as usize].status == TileStatus::Pending
+                    && live.iter().all(|w| by.contains(w) || kept_off(w))
+            });
+            if let Some((&index, by)) = blocked {
+                let by: Vec<u64> = by.iter().copied().collect();
+                stuck.push((
+                    job.id,
+                    format!(
+                        "tile {index} {:?} failed on {} and no other connected worker may take                          it; last error: {}",
+                        job.rects[index as usize],
+                        self.worker_names(&by),
+                        last_error(job, Some(index))
+                    ),
+                ));
+            }
+        }
+        for (id, error) in stuck {
+            self.fail_job(id, error)?;
+        }
+        Ok(())
+    }
+
+    /// `name (id)` of each worker, comma-separated.
+    fn worker_names(&self, ids: &[u64]) -> String {
+        ids.iter()
+            .map(|id| match self.workers.get(id) {
+                Some(w) => format!("{} ({id})", w.name),
+                None => format!("worker {id}"),
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
     }
 
     /// Returns lapsed leases to the queue.
@@ -88,7 +194,9 @@ impl Ledger {
     /// Leases the next tile for `worker`, if any job has one it may take.
     pub fn try_lease(&mut self, worker: u64, now: Instant) -> Result<Option<Lease>, Error> {
         self.check_worker(worker)?;
+        self.seen(worker, now);
         self.expire_leases(now);
+        self.fail_stuck_jobs(now)?;
         let mut order: Vec<(i32, u64)> = self
             .jobs
             .values()
@@ -156,6 +264,7 @@ impl Ledger {
         now: Instant,
     ) -> Result<HeartbeatAck, Error> {
         let ttl = self.lease_ttl;
+        self.seen(hb.worker_id, now);
         let job = self.job_mut(id)?;
         check_index(job, index)?;
         if !job.is_active() {
@@ -258,6 +367,7 @@ impl Ledger {
         index: u32,
         upload: &TileUpload,
     ) -> Result<(TileOutcome, bool), Error> {
+        self.seen(upload.worker_id, Instant::now());
         // The lease may have changed while the file was written.
         if self.check_upload(id, index, upload)? == UploadPlan::Duplicate {
             return Ok((TileOutcome::Duplicate, false));
@@ -289,8 +399,15 @@ impl Ledger {
         Ok((TileOutcome::Accepted, job.is_complete()))
     }
 
-    /// Records that a worker could not render its tile; may fail the job.
-    pub fn fail_tile(&mut self, id: u64, index: u32, failure: &TileFailure) -> Result<(), Error> {
+    /// Records that a worker could not render its tile; may fail the job (see the rules above).
+    pub fn fail_tile(
+        &mut self,
+        id: u64,
+        index: u32,
+        failure: &TileFailure,
+        now: Instant,
+    ) -> Result<(), Error> {
+        self.seen(failure.worker_id, now);
         let job = self.job(id)?;
         check_index(job, index)?;
         let tile = &job.tiles[index as usize];
@@ -311,18 +428,31 @@ impl Ledger {
                 tile.epoch, failure.epoch, failure.worker_id
             )));
         }
+        let worker = self.worker_names(&[failure.worker_id]);
+        let rect = job.rects[index as usize];
         let mut failed_by = job.failed_by.get(&index).cloned().unwrap_or_default();
         failed_by.insert(failure.worker_id);
-        let job_error = (failed_by.len() >= TILE_FAILURE_LIMIT).then(|| {
-            format!(
-                "tile {index} {:?} failed on {} different workers; last reason: {}",
-                job.rects[index as usize],
+        let reason = &failure.reason;
+        let job_error = if failure.deterministic {
+            Some(format!(
+                "tile {index} {rect:?} cannot be rendered (worker {worker}): {reason}"
+            ))
+        } else if failed_by.len() >= TILE_FAILURE_LIMIT {
+            Some(format!(
+                "tile {index} {rect:?} failed on {} different workers; last reason \
+                 (worker {worker}): {reason}",
                 failed_by.len(),
-                failure.reason
-            )
-        });
+            ))
+        } else if job.failures + 1 >= JOB_FAILURE_LIMIT {
+            Some(format!(
+                "{JOB_FAILURE_LIMIT} tile failures in this job; the last: tile {index} on \
+                 worker {worker}: {reason}"
+            ))
+        } else {
+            None
+        };
         let started = job.started_ms;
-        let now = now_ms();
+        let at_ms = now_ms();
 
         let tx = self.db.transaction()?;
         db::record_failure(
@@ -331,19 +461,32 @@ impl Ledger {
             index,
             failure.epoch,
             failure.worker_id,
-            &failure.reason,
+            reason,
+            at_ms,
         )?;
         if let Some(error) = &job_error {
-            db::set_job_state(&tx, id, JobState::Failed, Some(error), started, Some(now))?;
+            db::set_job_state(&tx, id, JobState::Failed, Some(error), started, Some(at_ms))?;
         }
         tx.commit()?;
 
+        let name = self
+            .workers
+            .get(&failure.worker_id)
+            .map_or_else(String::new, |w| w.name.clone());
         let job = self.job_mut(id)?;
         let tile = &mut job.tiles[index as usize];
         tile.status = TileStatus::Pending;
         tile.worker = None;
         job.leased.remove(&index);
         job.failed_by.insert(index, failed_by);
+        job.failures += 1;
+        job.remember_error(TileError {
+            tile: index,
+            worker_id: failure.worker_id,
+            worker: name,
+            at_ms,
+            message: reason.clone(),
+        });
         let strikes = job.strikes.entry(failure.worker_id).or_default();
         strikes.insert(index);
         tracing::warn!(
@@ -351,6 +494,7 @@ impl Ledger {
             tile = index,
             worker = failure.worker_id,
             reason = %failure.reason,
+            deterministic = failure.deterministic,
             "tile failed"
         );
         if strikes.len() == WORKER_STRIKE_LIMIT {
@@ -364,11 +508,24 @@ impl Ledger {
             tracing::error!(job = id, %error, "job failed");
             job.state = JobState::Failed;
             job.error = Some(error);
-            job.finished_ms = Some(now);
+            job.finished_ms = Some(at_ms);
             job.drop_leases();
+            return Ok(());
         }
-        Ok(())
+        self.fail_stuck_jobs(now)
     }
+}
+
+/// The message of the newest recorded failure (of tile `index`, if given).
+fn last_error(job: &Job, index: Option<u32>) -> String {
+    job.recent_errors
+        .iter()
+        .rev()
+        .find(|e| index.is_none_or(|i| e.tile == i))
+        .map_or_else(
+            || "(not kept)".to_string(),
+            |e| format!("{} (worker {})", e.message, e.worker),
+        )
 }
 
 /// The first pending tile of `job` (centre-first) that `worker` has not failed.

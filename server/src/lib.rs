@@ -155,34 +155,7 @@ impl AppState {
     }
 
     async fn assemble(&self, id: u64) {
-        let prepared = {
-            let ledger = self.ledger();
-            ledger
-                .job(id)
-                .map(|job| (job.spec.clone(), job.stats))
-                .and_then(|(spec, stats)| Ok((spec, stats, ledger.done_tiles(id)?)))
-        };
-        let Ok((spec, stats, tiles)) = prepared else {
-            return; // Deleted meanwhile.
-        };
-        let store = self.tile_store().clone();
-        let result = tokio::task::spawn_blocking(move || {
-            assemble::write_final(&store, id, &spec, &tiles, &stats)
-        })
-        .await
-        .map_err(anyhow::Error::from)
-        .and_then(|r| r)
-        .map_err(|e| {
-            tracing::error!(job = id, error = format!("{e:#}"), "assembly failed");
-            format!("{e:#}")
-        });
-        let finished = self.ledger().finish_assembly(id, result);
-        if let Err(e) = finished {
-            tracing::error!(job = id, error = %e, "recording the end of assembly failed");
-        }
-        if self.ledger().job(id).is_err() {
-            let _ = self.remove_job_files(id).await;
-        }
+        assemble::finish(self.clone(), id).await
     }
 }
 

@@ -15,6 +15,17 @@ use spindle_common::atomic_write;
 use spindle_common::protocol::pixel_hash;
 use spindle_common::tile::TilePixels;
 
+/// Why a recorded tile could not be read back.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ReadError {
+    /// The file is missing, truncated or altered: the tile must be rendered again.
+    #[error("{0}")]
+    Damaged(String),
+    /// Reading failed otherwise (I/O): it may pass.
+    #[error("{0}")]
+    Io(String),
+}
+
 /// Job directories under `DATA/jobs`.
 #[derive(Debug, Clone)]
 pub struct TileStore {
@@ -59,17 +70,29 @@ impl TileStore {
         Ok(atomic_write::write(&path, &bytes)?)
     }
 
-    /// Reads a recorded tile result back and checks it is the one recorded.
-    pub fn read(&self, job: u64, index: u32, hash: &str) -> anyhow::Result<TilePixels> {
+    /// Reads a recorded tile result back and checks it is the one recorded. Error messages
+    /// name the tile, never a path (they may reach clients); the path is logged.
+    pub fn read(&self, job: u64, index: u32, hash: &str) -> Result<TilePixels, ReadError> {
         let path = self.tile_path(job, index, hash);
-        let bytes = std::fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
-        let pixels: TilePixels = serde_json::from_slice(&bytes)
-            .with_context(|| format!("parsing {}", path.display()))?;
-        anyhow::ensure!(
-            pixel_hash(&pixels) == hash,
-            "{} does not hold the recorded result",
-            path.display()
-        );
+        let damaged = |problem: String| {
+            tracing::error!(job, tile = index, path = %path.display(), %problem, "stored tile damaged");
+            ReadError::Damaged(format!("the stored result of tile {index} {problem}"))
+        };
+        let bytes = match std::fs::read(&path) {
+            Ok(bytes) => bytes,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                return Err(damaged("is missing".into()));
+            }
+            Err(e) => {
+                tracing::error!(job, tile = index, path = %path.display(), error = %e, "reading a stored tile failed");
+                return Err(ReadError::Io(format!("reading tile {index}: {e}")));
+            }
+        };
+        let pixels: TilePixels =
+            serde_json::from_slice(&bytes).map_err(|e| damaged(format!("does not parse ({e})")))?;
+        if pixel_hash(&pixels) != hash {
+            return Err(damaged("does not hash to the recorded result".into()));
+        }
         Ok(pixels)
     }
 
@@ -114,7 +137,18 @@ mod tests {
         other.total[0] = 2.0;
         let path = store.tile_path(1, 4, &hash);
         std::fs::write(&path, serde_json::to_vec(&other).unwrap()).unwrap();
-        assert!(store.read(1, 4, &hash).is_err());
+        let damaged = |e: ReadError| match e {
+            ReadError::Damaged(m) => {
+                assert!(m.starts_with("the stored result of tile 4 "), "{m}");
+                assert!(!m.contains(&*dir.path().to_string_lossy()), "no path: {m}");
+            }
+            other => panic!("expected Damaged, got {other:?}"),
+        };
+        damaged(store.read(1, 4, &hash).unwrap_err());
+        std::fs::write(&path, b"{\"rect\":").unwrap();
+        damaged(store.read(1, 4, &hash).unwrap_err());
+        std::fs::remove_file(&path).unwrap();
+        damaged(store.read(1, 4, &hash).unwrap_err());
 
         store.remove_job(1).unwrap();
         assert!(!store.job_dir(1).exists());

@@ -1,6 +1,7 @@
 //! Lease rules: expiry and re-lease with a higher epoch, stale epochs refused while the newer
 //! lease succeeds, late identical results acknowledged, different ones refused, and the
-//! three-strikes rules for tiles and workers.
+//! failure rules: three strikes for tiles and workers, deterministic failures, a tile no
+//! connected worker may take, a job with too many failures, and the recent errors on show.
 
 mod support;
 
@@ -233,6 +234,8 @@ async fn a_worker_failing_three_tiles_of_a_job_is_kept_off_it() {
         .submit(json!({"scene": scene(32, 16), "tile_size": 8}))
         .await;
     let bad = c.register("bad").await;
+    // Connected from the start: a tile failed by every connected worker would fail the job.
+    let good = c.register("good").await;
     for _ in 0..3 {
         let lease = c.lease(bad).await.unwrap();
         assert_eq!(
@@ -250,8 +253,7 @@ async fn a_worker_failing_three_tiles_of_a_job_is_kept_off_it() {
         .await;
     assert_eq!(c.lease(bad).await.unwrap().job_id, other.id);
 
-    // A good worker finishes the first job, including the tiles the bad one failed.
-    let good = c.register("good").await;
+    // The good worker finishes the first job, including the tiles the bad one failed.
     let mut done = 0;
     while let Some(lease) = c.lease(good).await {
         let (status, _) = c
@@ -284,4 +286,223 @@ async fn an_unknown_worker_is_told_to_register() {
         err["error"].as_str().unwrap().contains("not registered"),
         "{err}"
     );
+}
+
+async fn fail_with(
+    c: &Coordinator,
+    lease: &spindle_common::protocol::Lease,
+    worker: u64,
+    reason: &str,
+    deterministic: bool,
+) -> StatusCode {
+    let (status, body) = c
+        .worker(
+            Method::POST,
+            &format!("/v1/leases/{}/{}/fail", lease.job_id, lease.tile_index),
+            Some(
+                json!({"worker_id": worker, "epoch": lease.epoch, "reason": reason,
+                        "deterministic": deterministic}),
+            ),
+        )
+        .await;
+    assert_eq!(status, StatusCode::NO_CONTENT, "{body}");
+    status
+}
+
+#[tokio::test]
+async fn with_two_workers_a_tile_both_failed_fails_its_job_instead_of_hanging() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = Coordinator::open(config(dir.path())).await;
+    let job = c
+        .submit(json!({"scene": scene(8, 8), "tile_size": 8}))
+        .await;
+    let (a, b) = (c.register("alpha").await, c.register("beta").await);
+    let lease = c.lease(a).await.unwrap();
+    fail_with(&c, &lease, a, "alpha broke", false).await;
+    assert_eq!(
+        c.job(job.id).await.state,
+        JobState::Running,
+        "beta may still render the tile"
+    );
+    let lease = c.lease(b).await.expect("beta gets the tile alpha failed");
+    fail_with(&c, &lease, b, "beta broke", false).await;
+    let info = c.job(job.id).await;
+    assert_eq!(info.state, JobState::Failed);
+    let error = info.error.unwrap();
+    assert!(
+        error.contains("tile 0")
+            && error.contains(&format!("alpha ({a}), beta ({b})"))
+            && error.contains("no other connected worker")
+            && error.contains("beta broke"),
+        "{error}"
+    );
+}
+
+#[tokio::test]
+async fn a_failed_tile_fails_its_job_once_the_workers_that_could_take_it_are_gone() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = with_ttl(dir.path(), Duration::from_millis(300)).await;
+    let job = c
+        .submit(json!({"scene": scene(8, 8), "tile_size": 8}))
+        .await;
+    let (a, _b) = (c.register("alpha").await, c.register("beta").await);
+    let lease = c.lease(a).await.unwrap();
+    fail_with(&c, &lease, a, "alpha broke", false).await;
+    assert_eq!(c.job(job.id).await.state, JobState::Running);
+    // beta never asks for work: after a lease TTL it no longer counts as connected.
+    tokio::time::sleep(Duration::from_millis(450)).await;
+    assert!(
+        c.lease(a).await.is_none(),
+        "alpha may not take the tile again"
+    );
+    let info = c.job(job.id).await;
+    assert_eq!(info.state, JobState::Failed, "{info:?}");
+    assert!(
+        info.error.as_deref().unwrap().contains("alpha broke"),
+        "{info:?}"
+    );
+}
+
+#[tokio::test]
+async fn a_deterministic_failure_fails_the_job_at_once_and_errors_are_shown() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = Coordinator::open(config(dir.path())).await;
+    let job = c
+        .submit(json!({"scene": scene(16, 8), "tile_size": 8}))
+        .await;
+    let workers = [
+        c.register("alpha").await,
+        c.register("beta").await,
+        c.register("gamma").await,
+    ];
+    let before = spindle_server::jobs::now_ms();
+    let lease = c.lease(workers[0]).await.unwrap();
+    let reason = "the scene does not build: objects[0].shape: face index 9 out of range";
+    fail_with(&c, &lease, workers[0], reason, true).await;
+    let info = c.job(job.id).await;
+    assert_eq!(info.state, JobState::Failed);
+    let error = info.error.unwrap();
+    assert!(error.contains(reason) && error.contains("alpha"), "{error}");
+    assert_eq!(info.recent_errors.len(), 1);
+    let e = &info.recent_errors[0];
+    assert_eq!(
+        (e.tile, e.worker_id, e.worker.as_str(), e.message.as_str()),
+        (lease.tile_index, workers[0], "alpha", reason)
+    );
+    assert!(e.at_ms >= before, "{e:?}");
+    assert!(
+        c.lease(workers[1]).await.is_none(),
+        "nothing more is handed out"
+    );
+}
+
+#[tokio::test]
+async fn ten_failures_in_a_job_fail_it_and_only_the_newest_errors_are_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = Coordinator::open(config(dir.path())).await;
+    // 4 × 4 tiles of 8 px.
+    let job = c
+        .submit(json!({"scene": scene(32, 32), "tile_size": 8}))
+        .await;
+    let mut workers = Vec::new();
+    for n in 0..12 {
+        workers.push(c.register(&format!("w{n}")).await);
+    }
+    // Ten different tiles on ten different workers: no tile reaches three failures.
+    let mut leases = Vec::new();
+    for &w in workers.iter().take(10) {
+        leases.push((w, c.lease(w).await.unwrap()));
+    }
+    for (n, (w, lease)) in leases.iter().enumerate() {
+        assert!(
+            !c.job(job.id).await.state.is_finished(),
+            "after {n} failures"
+        );
+        fail_with(&c, lease, *w, &format!("failure {n}"), false).await;
+    }
+    let info = c.job(job.id).await;
+    assert_eq!(info.state, JobState::Failed);
+    let error = info.error.unwrap();
+    assert!(
+        error.starts_with("10 tile failures in this job") && error.contains("failure 9"),
+        "{error}"
+    );
+    let kept: Vec<&str> = info
+        .recent_errors
+        .iter()
+        .map(|e| e.message.as_str())
+        .collect();
+    assert_eq!(
+        kept,
+        [
+            "failure 5",
+            "failure 6",
+            "failure 7",
+            "failure 8",
+            "failure 9"
+        ]
+    );
+}
+
+#[tokio::test]
+async fn a_job_says_how_many_workers_are_connected() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = with_ttl(dir.path(), Duration::from_millis(300)).await;
+    let job = c
+        .submit(json!({"scene": scene(8, 8), "tile_size": 8}))
+        .await;
+    assert_eq!(c.job(job.id).await.workers_live, 0);
+    let a = c.register("alpha").await;
+    assert_eq!(c.job(job.id).await.workers_live, 1);
+    let lease = c.lease(a).await.unwrap();
+    tokio::time::sleep(Duration::from_millis(450)).await;
+    assert_eq!(
+        c.job(job.id).await.workers_live,
+        0,
+        "silent for a lease TTL: gone"
+    );
+    let (status, _) = c.upload(job.id, 0, &upload_for(&lease, a)).await;
+    assert_eq!(status, StatusCode::OK);
+    assert_eq!(c.job(job.id).await.workers_live, 1, "heard from again");
+}
+
+#[tokio::test]
+async fn an_upload_beyond_f32_is_refused_naming_the_value() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = Coordinator::open(config(dir.path())).await;
+    let job = c
+        .submit(json!({"scene": scene(8, 8), "tile_size": 8}))
+        .await;
+    let w = c.register("w").await;
+    let lease = c.lease(w).await.unwrap();
+    // The hash of what a lenient parser would read (+inf), so only the value is wrong.
+    let mut read_as = upload_for(&lease, w);
+    read_as.pixels.total[4] = f32::INFINITY;
+    let mut body = serde_json::to_value(&read_as).unwrap();
+    body["hash"] = json!(pixel_hash(&read_as.pixels));
+    body["pixels"]["total"][4] = json!(1e39);
+    let (status, err) = c
+        .worker(
+            Method::PUT,
+            &format!("/v1/jobs/{}/tiles/0", job.id),
+            Some(body),
+        )
+        .await;
+    assert_eq!(status, StatusCode::BAD_REQUEST, "{err}");
+    let message = err["error"].as_str().unwrap();
+    assert!(
+        message.starts_with("pixels.total: value 4 is 1e39, beyond the range of 32-bit floats"),
+        "{message}"
+    );
+    assert_eq!(c.job(job.id).await.tiles_done, 0);
+    // The preview still renders (it used to answer 500 once +inf was stored).
+    let (status, _) = c
+        .send(
+            Method::GET,
+            &format!("/v1/jobs/{}/image.png", job.id),
+            Some(CLIENT),
+            "",
+        )
+        .await;
+    assert_eq!(status, StatusCode::OK);
 }

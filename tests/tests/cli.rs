@@ -157,6 +157,43 @@ async fn submit_wait_status_fetch_and_cancel_against_a_coordinator() {
             .trim()
             .parse()
             .expect("a job id");
+        let out = spindle(&["status", &queued.to_string()], Some(&farm)).await;
+        assert!(
+            String::from_utf8_lossy(&out.stdout).contains("queued — no workers connected"),
+            "{}",
+            text(&out)
+        );
+
+        // A scene whose mesh does not build is refused before anything is sent, with the
+        // message `render --workers 0` gives.
+        let broken = dir.path().join("broken");
+        let broken_scene = write_scene(&broken, 8, 8, 1);
+        std::fs::write(
+            broken.join("meshes/floor.obj"),
+            "v -4 0 -4\nv 4 0 -4\nv 4 0 4\nf 1 2 9\n",
+        )
+        .unwrap();
+        let b = broken_scene.to_str().unwrap();
+        let local = spindle(&["render", b, "--workers", "0", "-o", "x.exr"], None).await;
+        let submitted = spindle(&["submit", b], Some(&farm)).await;
+        assert!(!local.status.success() && !submitted.status.success());
+        let reason = |out: &Output| {
+            let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+            let line = stderr
+                .lines()
+                .find(|l| l.contains("floor.obj"))
+                .map(str::to_string);
+            line.unwrap_or_else(|| panic!("no mention of the mesh: {}", text(out)))
+        };
+        assert_eq!(reason(&submitted), reason(&local), "{}", text(&submitted));
+        let resp = farm
+            .client(reqwest::Method::GET, "/v1/jobs")
+            .send()
+            .await
+            .unwrap();
+        let list: spindle_common::protocol::JobList = resp.json().await.unwrap();
+        assert_eq!(list.jobs.len(), 1, "only the first job was submitted");
+
         let out = spindle(&["cancel", &queued.to_string()], Some(&farm)).await;
         assert!(out.status.success(), "{}", text(&out));
         assert_eq!(farm.job(queued).await.unwrap().state, JobState::Cancelled);

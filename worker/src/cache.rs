@@ -25,10 +25,13 @@ const HASH_ATTEMPTS: u32 = 3;
 /// Why a job's scene could not be had.
 #[derive(Debug, thiserror::Error)]
 pub enum LoadError {
-    /// The job cannot be rendered by anyone (bad asset, scene that does not build): the tile
+    /// The job cannot be rendered here (an asset missing or corrupted on the way): the tile
     /// should be reported as failed with this reason.
     #[error("{0}")]
     Broken(String),
+    /// The scene does not build: no worker can render it, the job should fail at once.
+    #[error("{0}")]
+    Unbuildable(String),
     /// The job is gone (deleted or cancelled) or the lease was lost: drop the tile quietly.
     #[error("the job is no longer available")]
     Gone,
@@ -118,7 +121,7 @@ impl SceneCache {
             tokio::task::spawn_blocking(move || pool.install(|| Scene::build(&desc, &assets)))
                 .await
                 .map_err(|e| LoadError::Broken(format!("building the scene panicked: {e}")))?;
-        built.map_err(|e| LoadError::Broken(format!("the scene does not build: {e}")))
+        built.map_err(|e| LoadError::Unbuildable(format!("the scene does not build: {e}")))
     }
 
     /// Downloads each distinct asset once and checks its hash; returns them keyed by path.

@@ -19,9 +19,11 @@ use crate::lease_ref::LeaseRef;
 pub enum Delivery {
     /// The coordinator acknowledged the tile.
     Acknowledged(TileOutcome),
-    /// The coordinator does not want it (stale lease, job deleted, upload refused); the reason
-    /// is for the log.
+    /// The coordinator does not want it (stale lease, job deleted); the reason is for the log.
     Refused(String),
+    /// The coordinator refused the tile itself as invalid (400, 413): the tile must be reported
+    /// as failed with the coordinator's message, or it would be leased and refused again forever.
+    Invalid(String),
     /// `stop` fired before an acknowledgement; the lease will lapse and the tile be rendered
     /// elsewhere.
     Abandoned,
@@ -51,12 +53,10 @@ pub async fn deliver(
     {
         Ok(ack) => Delivery::Acknowledged(ack.outcome),
         Err(RetryEnd::Stopped) => Delivery::Abandoned,
-        Err(RetryEnd::Failed(e)) => {
-            if e.kind() == ErrorKind::Rejected {
-                // A 400/413 for a tile this worker rendered is a bug somewhere: say so loudly.
-                tracing::error!(job, tile, error = %e, "the coordinator refused a rendered tile");
-            }
-            Delivery::Refused(e.to_string())
+        Err(RetryEnd::Failed(e)) if e.kind() == ErrorKind::Rejected => {
+            tracing::error!(job, tile, error = %e, "the coordinator refused a rendered tile");
+            Delivery::Invalid(e.to_string())
         }
+        Err(RetryEnd::Failed(e)) => Delivery::Refused(e.to_string()),
     }
 }

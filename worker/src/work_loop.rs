@@ -7,9 +7,10 @@
 //! - the coordinator no longer knows this worker (404 on the lease route): register again;
 //! - a heartbeat answered 409/404: the lease is lost; whatever was being done for it is
 //!   abandoned (a render in progress finishes but is not uploaded);
-//! - a job that cannot be rendered (bad asset, scene that does not build, renderer panic): the
-//!   tile is reported through the fail route with the reason, so the coordinator can apply its
-//!   three-strikes rules;
+//! - a job that cannot be rendered (bad asset, renderer panic, a tile the coordinator refuses as
+//!   invalid): the tile is reported through the fail route with the reason, so the coordinator
+//!   can apply its failure rules; a failure no other worker could avoid (the scene does not
+//!   build, a pixel overflows f32) is reported as deterministic, which fails the job at once;
 //! - the token refused (401/403): the worker stops with an error, since no retry can fix it.
 //!
 //! Shutdown: once `shutdown` fires, no new lease is asked for. The tile in hand is finished and
@@ -72,8 +73,11 @@ pub struct Worker {
 /// How the work on one lease ended, before delivery.
 enum Rendered {
     Pixels(TilePixels),
-    /// The tile cannot be rendered: report this reason.
-    Failed(String),
+    /// The tile cannot be rendered: report this reason (`deterministic`: no worker could).
+    Failed {
+        reason: String,
+        deterministic: bool,
+    },
     /// Nothing to deliver (lease lost, job gone, deadline).
     Abandoned,
 }
@@ -216,48 +220,22 @@ impl Worker {
             Duration::from_millis(lease.ttl_ms),
             stop.clone(),
         ));
-        let rendered = self.render(job, lease.rect, &stop).await;
-        let outcome = match rendered {
+        let outcome = match self.render(job, lease.rect, &stop).await {
             Ok(Rendered::Pixels(pixels)) => {
-                let delivery = deliver(
-                    &self.client,
-                    self.config.backoff,
-                    &stop,
-                    worker_id,
-                    held,
-                    pixels,
-                )
-                .await;
-                match delivery {
-                    Delivery::Acknowledged(TileOutcome::Accepted) => self.summary.accepted += 1,
-                    Delivery::Acknowledged(TileOutcome::Duplicate) => self.summary.duplicates += 1,
-                    Delivery::Refused(_) | Delivery::Abandoned => self.summary.abandoned += 1,
-                }
-                tracing::info!(job, tile, epoch, outcome = ?delivery, "tile delivered");
-                Ok(())
-            }
-            Ok(Rendered::Failed(reason)) => {
-                self.summary.failed += 1;
-                tracing::warn!(job, tile, %reason, "tile failed");
-                let body = TileFailure {
-                    worker_id,
-                    epoch,
-                    reason,
-                };
-                match retry(
-                    self.config.backoff,
-                    worker_id,
-                    &stop,
-                    "reporting a failed tile",
-                    || self.client.fail(job, tile, &body),
-                )
-                .await
-                {
-                    Err(RetryEnd::Failed(e)) if e.kind() == ErrorKind::Unauthorized => {
-                        Err(fatal(e, "reporting a failed tile"))
+                match self.deliver(worker_id, held, pixels, &stop).await {
+                    Some(reason) => {
+                        self.report_failure(worker_id, held, reason, false, &stop)
+                            .await
                     }
-                    _ => Ok(()),
+                    None => Ok(()),
                 }
+            }
+            Ok(Rendered::Failed {
+                reason,
+                deterministic,
+            }) => {
+                self.report_failure(worker_id, held, reason, deterministic, &stop)
+                    .await
             }
             Ok(Rendered::Abandoned) => {
                 self.summary.abandoned += 1;
@@ -270,6 +248,73 @@ impl Worker {
         outcome
     }
 
+    /// Uploads a rendered tile; returns the reason to report it as failed if the coordinator
+    /// refused it as invalid.
+    async fn deliver(
+        &mut self,
+        worker_id: u64,
+        held: LeaseRef,
+        pixels: TilePixels,
+        stop: &CancellationToken,
+    ) -> Option<String> {
+        let LeaseRef { job, tile, epoch } = held;
+        let delivery = deliver(
+            &self.client,
+            self.config.backoff,
+            stop,
+            worker_id,
+            held,
+            pixels,
+        )
+        .await;
+        tracing::info!(job, tile, epoch, outcome = ?delivery, "tile delivered");
+        match delivery {
+            Delivery::Acknowledged(TileOutcome::Accepted) => self.summary.accepted += 1,
+            Delivery::Acknowledged(TileOutcome::Duplicate) => self.summary.duplicates += 1,
+            Delivery::Refused(_) | Delivery::Abandoned => self.summary.abandoned += 1,
+            Delivery::Invalid(reason) => {
+                return Some(format!(
+                    "the coordinator refused the rendered tile: {reason}"
+                ));
+            }
+        }
+        None
+    }
+
+    /// Reports a tile as failed, retrying until the coordinator answers.
+    async fn report_failure(
+        &mut self,
+        worker_id: u64,
+        held: LeaseRef,
+        reason: String,
+        deterministic: bool,
+        stop: &CancellationToken,
+    ) -> anyhow::Result<()> {
+        let LeaseRef { job, tile, epoch } = held;
+        self.summary.failed += 1;
+        tracing::warn!(job, tile, %reason, deterministic, "tile failed");
+        let body = TileFailure {
+            worker_id,
+            epoch,
+            reason,
+            deterministic,
+        };
+        match retry(
+            self.config.backoff,
+            worker_id,
+            stop,
+            "reporting a failed tile",
+            || self.client.fail(job, tile, &body),
+        )
+        .await
+        {
+            Err(RetryEnd::Failed(e)) if e.kind() == ErrorKind::Unauthorized => {
+                Err(fatal(e, "reporting a failed tile"))
+            }
+            _ => Ok(()),
+        }
+    }
+
     /// Loads the job's scene (cached) and renders the tile on the render pool.
     async fn render(
         &mut self,
@@ -279,7 +324,18 @@ impl Worker {
     ) -> anyhow::Result<Rendered> {
         let scene = match self.cache.get(job_id, stop).await {
             Ok(scene) => scene,
-            Err(LoadError::Broken(reason)) => return Ok(Rendered::Failed(reason)),
+            Err(LoadError::Broken(reason)) => {
+                return Ok(Rendered::Failed {
+                    reason,
+                    deterministic: false,
+                });
+            }
+            Err(LoadError::Unbuildable(reason)) => {
+                return Ok(Rendered::Failed {
+                    reason,
+                    deterministic: true,
+                });
+            }
             Err(LoadError::Gone | LoadError::Interrupted) => return Ok(Rendered::Abandoned),
             Err(LoadError::Unauthorized(e)) => return Err(fatal(e, "loading a job")),
         };
@@ -289,22 +345,32 @@ impl Worker {
             || u64::from(rect.x) + u64::from(rect.width) > u64::from(film.width)
             || u64::from(rect.y) + u64::from(rect.height) > u64::from(film.height)
         {
-            return Ok(Rendered::Failed(format!(
-                "lease rect {rect:?} is not inside the {}x{} film",
-                film.width, film.height
-            )));
+            return Ok(Rendered::Failed {
+                reason: format!(
+                    "lease rect {rect:?} is not inside the {}x{} film",
+                    film.width, film.height
+                ),
+                deterministic: false,
+            });
         }
         let pool = self.pool.clone();
         let job = tokio::task::spawn_blocking(move || pool.install(|| render_tile(&scene, rect)));
         let pixels = match job.await {
             Ok(pixels) => pixels,
             Err(e) => {
-                return Ok(Rendered::Failed(format!(
-                    "the renderer panicked: {}",
-                    panic_message(e)
-                )));
+                return Ok(Rendered::Failed {
+                    reason: format!("the renderer panicked: {}", panic_message(e)),
+                    deterministic: false,
+                });
             }
         };
+        if let Some(problem) = first_non_finite(&pixels) {
+            // A pixel depends only on the scene: every worker would render the same overflow.
+            return Ok(Rendered::Failed {
+                reason: problem,
+                deterministic: true,
+            });
+        }
         if stop.is_cancelled() {
             // The lease was lost (or the deadline passed) while rendering.
             return Ok(Rendered::Abandoned);
@@ -349,6 +415,28 @@ async fn heartbeat_loop(
             Err(e) => tracing::warn!(job, tile, error = %e, "heartbeat failed"),
         }
     }
+}
+
+/// Names the first pixel value that is not a finite f32 (the image formats and the tile
+/// protocol carry finite values only), if any.
+fn first_non_finite(pixels: &TilePixels) -> Option<String> {
+    let rect = pixels.rect;
+    for (name, layer) in spindle_common::tile::LAYER_NAMES
+        .iter()
+        .zip(pixels.layers())
+    {
+        if let Some(i) = layer.iter().position(|v| !v.is_finite()) {
+            let (pixel, channel) = (i / 3, i % 3);
+            let x = rect.x as usize + pixel % rect.width as usize;
+            let y = rect.y as usize + pixel / rect.width as usize;
+            return Some(format!(
+                "pixel ({x}, {y}) of layer {name}, channel {channel}, is {}: the scene's \
+                 radiance overflows 32-bit floats (check light intensities and radiances)",
+                layer[i]
+            ));
+        }
+    }
+    None
 }
 
 /// An error that ends the worker, with what it was doing.

@@ -89,8 +89,7 @@ async fn get_job(
     State(state): State<AppState>,
     ApiPath(id): ApiPath<u64>,
 ) -> Result<Json<JobInfo>, Error> {
-    let info = state.ledger().job(id)?.info(crate::jobs::now_ms());
-    Ok(Json(info))
+    Ok(Json(state.ledger().info(id)?))
 }
 
 /// Cancels a job; its tiles are no longer handed out and late uploads are refused.
@@ -112,7 +111,12 @@ async fn delete_job(
     ApiPath(id): ApiPath<u64>,
 ) -> Result<StatusCode, Error> {
     state.ledger().delete(id)?;
-    state.remove_job_files(id).await?;
+    // The job is gone for every request from here on. An upload still writing into its
+    // directory removes it again when it finds the job gone, so a failed removal (a file
+    // appearing meanwhile) is logged, not answered as a failure of the delete.
+    if let Err(e) = state.remove_job_files(id).await {
+        tracing::warn!(job = id, error = %e, "removing the files of a deleted job failed");
+    }
     Ok(StatusCode::NO_CONTENT)
 }
 

@@ -79,6 +79,10 @@ async fn lease(
         .min(MAX_LEASE_WAIT_MS)
         .min(state.config().timeouts.long_poll_cap().as_millis() as u64);
     let deadline = Instant::now() + Duration::from_millis(wait);
+    let _polling = Polling::start(&state, worker)?;
+    // Woken at least once a lease TTL, so a job nobody connected can finish any more is
+    // failed even when nothing else happens.
+    let recheck = state.config().lease_ttl;
     loop {
         let notified = state.work_notified();
         tokio::pin!(notified);
@@ -97,12 +101,37 @@ async fn lease(
         if Instant::now() >= deadline || state.is_shutting_down() {
             return Ok(StatusCode::NO_CONTENT.into_response());
         }
-        let wake = next_expiry.map_or(deadline, |e| e.min(deadline));
+        let wake = next_expiry
+            .map_or(deadline, |e| e.min(deadline))
+            .min(Instant::now() + recheck);
         tokio::select! {
             _ = &mut notified => {}
             _ = tokio::time::sleep_until(wake) => {}
             _ = state.shutdown_signal() => return Ok(StatusCode::NO_CONTENT.into_response()),
         }
+    }
+}
+
+/// A worker's lease poll in progress: it counts as connected until the poll ends, however it
+/// ends (answered, or dropped because the client went away).
+struct Polling {
+    state: AppState,
+    worker: u64,
+}
+
+impl Polling {
+    fn start(state: &AppState, worker: u64) -> Result<Polling, Error> {
+        state.ledger().poll_started(worker, Instant::now())?;
+        Ok(Polling {
+            state: state.clone(),
+            worker,
+        })
+    }
+}
+
+impl Drop for Polling {
+    fn drop(&mut self) {
+        self.state.ledger().poll_ended(self.worker, Instant::now());
     }
 }
 
@@ -169,19 +198,34 @@ async fn upload_tile(
         }));
     }
     let store = state.tile_store().clone();
-    let upload = tokio::task::spawn_blocking(move || {
-        store
-            .write(job, tile, &upload.hash, &upload.pixels)
-            .map(|()| upload)
+    let written = tokio::task::spawn_blocking(move || {
+        let written = store.write(job, tile, &upload.hash, &upload.pixels);
+        (written, upload)
     })
     .await
-    .map_err(anyhow::Error::from)??;
+    .map_err(anyhow::Error::from)?;
+    let upload = match written {
+        (Ok(()), upload) => upload,
+        (Err(e), upload) => {
+            // The job deleted or cancelled meanwhile takes its directory away: say that, not 500.
+            let now = state.ledger().check_upload(job, tile, &upload);
+            if let Err(refused) = now {
+                if matches!(refused, Error::NotFound(_)) {
+                    discard_files(&state, job).await;
+                }
+                return Err(refused);
+            }
+            return Err(Error::Internal(
+                e.context(format!("storing tile {tile} of job {job}")),
+            ));
+        }
+    };
     let recorded = state.ledger().record_upload(job, tile, &upload);
     let (outcome, complete) = match recorded {
         Ok(r) => r,
         Err(Error::NotFound(m)) => {
             // Deleted while the file was written: do not leave the file behind.
-            state.remove_job_files(job).await?;
+            discard_files(&state, job).await;
             return Err(Error::NotFound(m));
         }
         Err(e) => return Err(e),
@@ -190,6 +234,14 @@ async fn upload_tile(
         state.assemble_complete_jobs();
     }
     Ok(Json(TileAck { outcome }))
+}
+
+/// Removes the files of a job deleted while one of its tiles was being stored; a failure is
+/// logged (the job is gone either way).
+async fn discard_files(state: &AppState, job: u64) {
+    if let Err(e) = state.remove_job_files(job).await {
+        tracing::warn!(job, error = %e, "removing the files of a deleted job failed");
+    }
 }
 
 /// Reports that a tile could not be rendered.
@@ -209,7 +261,9 @@ async fn fail_tile(
         }
         failure.reason.truncate(end);
     }
-    state.ledger().fail_tile(job, tile, &failure)?;
+    state
+        .ledger()
+        .fail_tile(job, tile, &failure, Instant::now())?;
     state.work_available();
     Ok(StatusCode::NO_CONTENT)
 }

@@ -1,0 +1,184 @@
+//! A stored tile found damaged at assembly goes back to the queue, an I/O error at assembly is
+//! retried, and a tile upload racing a delete or cancel is answered 404/409, never 500.
+
+mod support;
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use axum::http::{Method, StatusCode};
+use serde_json::json;
+use spindle_common::protocol::JobState;
+use support::*;
+
+/// The stored file of tile `index` of `job` (its name ends with the result's hash).
+fn tile_file(data: &Path, job: u64, index: u32) -> PathBuf {
+    let dir = data.join("jobs").join(job.to_string()).join("tiles");
+    std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| {
+            let name = p.file_name().unwrap().to_string_lossy().to_string();
+            name.starts_with(&format!("{index}-")) && name.ends_with(".json")
+        })
+        .unwrap_or_else(|| panic!("no file for tile {index} in {}", dir.display()))
+}
+
+#[tokio::test]
+async fn damaged_tiles_are_rendered_again_instead_of_failing_the_job() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = Coordinator::open(config(dir.path())).await;
+    // Three tiles of 8 × 8.
+    let job = c
+        .submit(json!({"scene": scene(24, 8), "tile_size": 8}))
+        .await;
+    let w = c.register("w").await;
+    let leases: Vec<_> = [
+        c.lease(w).await.unwrap(),
+        c.lease(w).await.unwrap(),
+        c.lease(w).await.unwrap(),
+    ]
+    .into();
+    for lease in &leases[..2] {
+        let (status, v) = c
+            .upload(job.id, lease.tile_index, &upload_for(lease, w))
+            .await;
+        assert_eq!(status, StatusCode::OK, "{v}");
+    }
+    // One file loses its end, the other has one digit changed (only the hash can tell).
+    let truncated = tile_file(dir.path(), job.id, leases[0].tile_index);
+    let bytes = std::fs::read(&truncated).unwrap();
+    std::fs::write(&truncated, &bytes[..bytes.len() / 2]).unwrap();
+    let flipped = tile_file(dir.path(), job.id, leases[1].tile_index);
+    let text = std::fs::read_to_string(&flipped).unwrap();
+    let at = text.find("\"total\":[").expect("the total layer") + "\"total\":[".len();
+    let digit = text.as_bytes()[at];
+    assert!(digit.is_ascii_digit(), "{text}");
+    let other = (b'0' + (digit - b'0' + 1) % 10) as char;
+    std::fs::write(
+        &flipped,
+        format!("{}{other}{}", &text[..at], &text[at + 1..]),
+    )
+    .unwrap();
+
+    let last = &leases[2];
+    let (status, v) = c
+        .upload(job.id, last.tile_index, &upload_for(last, w))
+        .await;
+    assert_eq!(status, StatusCode::OK, "{v}");
+
+    // Assembly finds both and puts them back in the queue; the job keeps running.
+    let mut info = c.job(job.id).await;
+    for _ in 0..500 {
+        if info.tiles_done == 1 {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+        info = c.job(job.id).await;
+    }
+    assert_eq!(
+        (info.state, info.tiles_done),
+        (JobState::Running, 1),
+        "{info:?}"
+    );
+    let messages: Vec<&str> = info
+        .recent_errors
+        .iter()
+        .map(|e| e.message.as_str())
+        .collect();
+    assert_eq!(messages.len(), 2, "{messages:?}");
+    let data = dir.path().to_string_lossy().to_string();
+    for m in &messages {
+        assert!(
+            m.contains("rendering it again") && !m.contains(&data),
+            "{m}"
+        );
+    }
+
+    // Rendered again under new epochs, the job completes.
+    for _ in 0..2 {
+        let again = c.lease(w).await.expect("a damaged tile is leased again");
+        assert!(again.epoch >= 2, "{again:?}");
+        let (status, v) = c
+            .upload(job.id, again.tile_index, &upload_for(&again, w))
+            .await;
+        assert_eq!(status, StatusCode::OK, "{v}");
+    }
+    let done = c.wait_finished(job.id).await;
+    assert_eq!(done.state, JobState::Done, "{:?}", done.error);
+    assert_eq!(done.stats.samples, 3, "each tile counted once");
+}
+
+#[tokio::test]
+async fn an_io_error_at_assembly_is_retried_until_it_passes() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = Coordinator::open(config(dir.path())).await;
+    let job = c
+        .submit(json!({"scene": scene(8, 8), "tile_size": 8}))
+        .await;
+    let w = c.register("w").await;
+    let lease = c.lease(w).await.unwrap();
+    // A directory where the image goes: writing it fails (EISDIR) until it is removed.
+    let image = dir.path().join(format!("jobs/{}/image.exr", job.id));
+    std::fs::create_dir_all(&image).unwrap();
+    let (status, v) = c.upload(job.id, 0, &upload_for(&lease, w)).await;
+    assert_eq!(status, StatusCode::OK, "{v}");
+    tokio::time::sleep(Duration::from_millis(400)).await;
+    let info = c.job(job.id).await;
+    assert_eq!(
+        info.state,
+        JobState::Running,
+        "not failed for good: {info:?}"
+    );
+    std::fs::remove_dir(&image).unwrap();
+    let done = c.wait_finished(job.id).await;
+    assert_eq!(done.state, JobState::Done, "{:?}", done.error);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_upload_racing_a_delete_or_cancel_is_answered_404_or_409() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = Coordinator::open(config(dir.path())).await;
+    let w = c.register("w").await;
+    let body = json!({"scene": scene(256, 256), "tile_size": 256});
+    // How long one upload takes here, to pull the job away at points spread across it.
+    let job = c.submit(body.clone()).await;
+    let lease = c.lease(w).await.unwrap();
+    let started = std::time::Instant::now();
+    assert_eq!(
+        c.upload(job.id, 0, &upload_for(&lease, w)).await.0,
+        StatusCode::OK
+    );
+    let span = started.elapsed();
+    let rounds = 40u32;
+    for round in 0..rounds {
+        let job = c.submit(body.clone()).await;
+        let lease = c.lease(w).await.unwrap();
+        let upload = upload_for(&lease, w);
+        let uploading = tokio::spawn({
+            let c = Coordinator {
+                app: c.app.clone(),
+                state: c.state.clone(),
+                config: c.config.clone(),
+            };
+            async move { c.upload(job.id, 0, &upload).await }
+        });
+        tokio::time::sleep(span * (round / 2) / (rounds / 2)).await;
+        let cancel = round % 2 == 1;
+        let (status, v) = if cancel {
+            c.client(Method::POST, &format!("/v1/jobs/{}/cancel", job.id), None)
+                .await
+        } else {
+            c.client(Method::DELETE, &format!("/v1/jobs/{}", job.id), None)
+                .await
+        };
+        assert!(status.is_success(), "round {round}: {status} {v}");
+        let (status, v) = uploading.await.unwrap();
+        let allowed = if cancel {
+            [StatusCode::OK, StatusCode::CONFLICT]
+        } else {
+            [StatusCode::OK, StatusCode::NOT_FOUND]
+        };
+        assert!(allowed.contains(&status), "round {round}: {status} {v}");
+    }
+}

@@ -1,0 +1,84 @@
+//! Jobs that cannot finish end `failed` with the reason, quickly, on a farm of real processes:
+//! never a silent loop, never a hang while workers wait.
+
+use std::time::Duration;
+
+use spindle_common::protocol::JobState;
+use spindle_tests::{Farm, test_scene};
+
+/// The longest any test here may take before it fails by itself.
+const TEST_TIMEOUT: Duration = Duration::from_secs(60);
+
+async fn bounded(body: impl Future<Output = anyhow::Result<()>>) {
+    match tokio::time::timeout(TEST_TIMEOUT, body).await {
+        Ok(result) => result.unwrap(),
+        Err(_) => panic!("the test did not finish within {TEST_TIMEOUT:?}"),
+    }
+}
+
+/// A farm of two workers, registered.
+async fn two_workers(lease_ttl_s: f64) -> anyhow::Result<Farm> {
+    let mut farm = Farm::start(lease_ttl_s).await?;
+    farm.add_worker("w1", 1)?;
+    farm.add_worker("w2", 1)?;
+    farm.wait_registered(0).await?;
+    farm.wait_registered(1).await?;
+    Ok(farm)
+}
+
+/// A light of 1e300 validates but renders +inf: the tile can never be uploaded. It used to be
+/// dropped by the worker and leased again forever ("running 0/1").
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn pixels_beyond_f32_fail_the_job_with_the_reason_instead_of_looping() {
+    bounded(async {
+        let (mut scene, assets) = test_scene(16, 16, 1);
+        scene["lights"][0]["intensity"] = serde_json::json!([1e300, 1e300, 1e300]);
+        let farm = two_workers(1.0).await?;
+        let job = farm.submit(&scene, &assets, 16).await?;
+        let end = farm
+            .wait_job(job.id, Duration::from_secs(30), |j| j.state.is_finished())
+            .await?;
+        assert_eq!(end.state, JobState::Failed, "{end:?}");
+        let error = end.error.unwrap();
+        assert!(
+            error.contains("overflows 32-bit floats") && error.contains("tile 0"),
+            "{error}"
+        );
+        assert_eq!(end.recent_errors.len(), 1, "{:?}", end.recent_errors);
+        assert!(["w1", "w2"].contains(&end.recent_errors[0].worker.as_str()));
+        Ok(())
+    })
+    .await;
+}
+
+/// An OBJ face that names a vertex the file does not have: the scene validates on the
+/// coordinator (it does not read meshes) but no worker can build it.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_scene_no_worker_can_build_fails_at_once_with_the_reason() {
+    bounded(async {
+        let (scene, mut assets) = test_scene(16, 16, 1);
+        assets.insert(
+            "meshes/floor.obj".into(),
+            b"v -4 0 -4\nv 4 0 -4\nv 4 0 4\nf 1 2 9\n".to_vec(),
+        );
+        let farm = two_workers(5.0).await?;
+        let job = farm.submit(&scene, &assets, 8).await?;
+        let end = farm
+            .wait_job(job.id, Duration::from_secs(30), |j| j.state.is_finished())
+            .await?;
+        assert_eq!(end.state, JobState::Failed, "{end:?}");
+        let error = end.error.unwrap();
+        assert!(error.contains("the scene does not build"), "{error}");
+        assert_eq!(
+            end.recent_errors.len(),
+            1,
+            "at once: {:?}",
+            end.recent_errors
+        );
+        let e = &end.recent_errors[0];
+        assert!(e.message.contains("the scene does not build"), "{e:?}");
+        assert!(["w1", "w2"].contains(&e.worker.as_str()), "{e:?}");
+        Ok(())
+    })
+    .await;
+}
