@@ -445,7 +445,8 @@ fn extremes_stay_finite() {
             let lights = [
                 json!([{"type": "point", "position": [0.0, top + 1e-7, 0.0], "intensity": [1.0, 1.0, 1.0]}]),
                 json!([{"type": "point", "position": [side + 2.0, 0.0, 0.0], "intensity": [1.0, 1.0, 1.0]}]),
-                json!([{"type": "point", "position": [1e7, 2e6, 0.0], "intensity": [1e14, 1e14, 1e14]}]),
+                // Very far: near the edge of the scene bounds (±1e6).
+                json!([{"type": "point", "position": [9e5, 2e5, 0.0], "intensity": [1e12, 1e12, 1e12]}]),
                 json!([{"type": "sphere", "center": [0.0, 0.0, 1.5], "radius": 0.25, "radiance": [1.0, 1.0, 1.0]}]),
             ];
             let segments = [
