@@ -63,6 +63,10 @@ pub fn second_interfaces(
 ) -> Vec<SecondInterface> {
     let dielectric = |o: &Object| matches!(o.material, Material::Dielectric(_));
     let mut found = Vec::new();
+    if objects.iter().filter(|o| dielectric(o)).count() < 2 {
+        // Nothing else can be in the way.
+        return found;
+    }
     for (o, object) in objects.iter().enumerate().filter(|(_, o)| dielectric(o)) {
         let points = surface_points(object);
         for (j, light) in light_positions.iter().enumerate() {
