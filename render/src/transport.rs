@@ -133,25 +133,11 @@ fn trace(
                 .filter_map(|j| scene.lights()[j].intersect(&ray))
                 .filter(|&(t, _)| t < length)
                 .min_by(|a, b| a.0.total_cmp(&b.0));
-            if let Some((t_light, emitted)) = light {
-                let segment = Segment {
-                    origin: ray.origin,
-                    dir: ray.dir,
-                    length: t_light,
-                    object,
-                    throughput: state.throughput,
-                };
-                stats.camera_segments += 1;
-                let scattered = scatter::single_scatter(scene, &segment, sampler, stats);
-                out.single_scatter += state.throughput * scattered;
-                let seen = dielectric.medium.transmittance(t_light) * emitted;
-                out.surface += state.throughput * seen;
-                return;
-            }
+            let end = light.map_or(length, |(t_light, _)| t_light);
             let segment = Segment {
                 origin: ray.origin,
                 dir: ray.dir,
-                length,
+                length: end,
                 object,
                 throughput: state.throughput,
             };
@@ -159,6 +145,11 @@ fn trace(
             let scattered = scatter::single_scatter(scene, &segment, sampler, stats);
             debug_assert!(scattered.is_finite(), "single_scatter returned {scattered}");
             out.single_scatter += state.throughput * scattered;
+            if let Some((t_light, emitted)) = light {
+                let seen = dielectric.medium.transmittance(t_light) * emitted;
+                out.surface += state.throughput * seen;
+                return;
+            }
             let state = PathState {
                 throughput: state.throughput * dielectric.medium.transmittance(length),
                 ..state

@@ -3,6 +3,8 @@
 //! Before depths were sampled by attenuation, K = 1 was 82× dark at σ_t = 100 on the slab and
 //! lost all light at 1e4.
 
+mod support;
+
 use glam::DVec3;
 use serde_json::{Value, json};
 use spindle_common::stats::RenderStats;
@@ -11,33 +13,7 @@ use spindle_render::sampler::Sampler;
 use spindle_render::scatter::single_scatter;
 use spindle_render::segment::Segment;
 use spindle_render::{Assets, Rgb, Scene, render_tile};
-
-/// An axis-aligned box `[lo, hi]` as OBJ text with one normal per face.
-fn box_obj(lo: DVec3, hi: DVec3) -> String {
-    let mut s = String::new();
-    for i in 0..8 {
-        let x = if i & 1 == 1 { hi.x } else { lo.x };
-        let y = if i & 2 == 2 { hi.y } else { lo.y };
-        let z = if i & 4 == 4 { hi.z } else { lo.z };
-        s += &format!("v {x} {y} {z}\n");
-    }
-    s += "vn 0 0 -1\nvn 0 0 1\nvn 0 -1 0\nvn 0 1 0\nvn -1 0 0\nvn 1 0 0\n";
-    let faces = [
-        (1, [1, 3, 4, 2]),
-        (2, [5, 6, 8, 7]),
-        (3, [1, 2, 6, 5]),
-        (4, [3, 7, 8, 4]),
-        (5, [1, 5, 7, 3]),
-        (6, [2, 4, 8, 6]),
-    ];
-    for (n, q) in faces {
-        s += &format!(
-            "f {}//{n} {}//{n} {}//{n} {}//{n}\n",
-            q[0], q[1], q[2], q[3]
-        );
-    }
-    s
-}
+use support::box_obj;
 
 /// A scene of one dielectric box (η 1.5) with the given medium, lights, camera and integrator.
 fn box_scene(obj: String, medium: Value, lights: Value, camera: Value, ss: Value) -> Scene {
@@ -108,7 +84,11 @@ fn flat_interface_over_a_semi_infinite_medium() {
     let sin_t = (1.0 - cos_i * cos_i).sqrt() / eta;
     let tangent = DVec3::new(d0.x, d0.y, 0.0).normalize();
     let dir = sin_t * tangent - (1.0 - sin_t * sin_t).sqrt() * DVec3::Z;
-    let obj = box_obj(DVec3::new(-50.0, -50.0, -2.0), DVec3::new(50.0, 50.0, 0.0));
+    let obj = box_obj(
+        DVec3::new(-50.0, -50.0, -2.0),
+        DVec3::new(50.0, 50.0, 0.0),
+        false,
+    );
     let albedo = 0.9;
     let truth = semi_infinite(p, dir, light, 5.0, albedo);
     for sigma in [1e3, 1e4, 1e5] {
@@ -175,7 +155,11 @@ fn image_mean(scene: &Scene) -> f64 {
 fn k_one_agrees_with_point_sampling_from_thin_to_dense() {
     let slab = |sigma: f64, ss: Value| {
         box_scene(
-            box_obj(DVec3::new(-1.0, -1.0, -0.15), DVec3::new(1.0, 1.0, 0.15)),
+            box_obj(
+                DVec3::new(-1.0, -1.0, -0.15),
+                DVec3::new(1.0, 1.0, 0.15),
+                false,
+            ),
             json!({"sigma_t": [sigma, sigma, sigma], "albedo": [0.9, 0.9, 0.9]}),
             json!([{"type": "point", "position": [2.83, 0, -2.83], "intensity": [10, 10, 10]}]),
             json!({"position": [0, 0, -5], "look_at": [0, 0, 0], "fov_y": 30}),

@@ -2,6 +2,8 @@
 //! the medium is the airlight integral; with η = 1 a camera inside sees the straight-path
 //! integral) and against point sampling. Before, both were silently black.
 
+mod support;
+
 use glam::DVec3;
 use serde_json::{Value, json};
 use spindle_common::stats::RenderStats;
@@ -11,35 +13,14 @@ use spindle_render::sampler::Sampler;
 use spindle_render::scatter::{describe_plan, single_scatter};
 use spindle_render::segment::Segment;
 use spindle_render::{Assets, Rgb, Scene, render_tile};
-
-/// The cube `[-1, 1]³` as OBJ text with one normal per face.
-fn cube_obj() -> String {
-    let mut s = String::new();
-    for i in 0..8 {
-        let c = |bit: i32| if i & bit != 0 { 1.0 } else { -1.0 };
-        s += &format!("v {} {} {}\n", c(1), c(2), c(4));
-    }
-    s += "vn 0 0 -1\nvn 0 0 1\nvn 0 -1 0\nvn 0 1 0\nvn -1 0 0\nvn 1 0 0\n";
-    let faces = [
-        (1, [1, 3, 4, 2]),
-        (2, [5, 6, 8, 7]),
-        (3, [1, 2, 6, 5]),
-        (4, [3, 7, 8, 4]),
-        (5, [1, 5, 7, 3]),
-        (6, [2, 4, 8, 6]),
-    ];
-    for (n, q) in faces {
-        s += &format!(
-            "f {}//{n} {}//{n} {}//{n} {}//{n}\n",
-            q[0], q[1], q[2], q[3]
-        );
-    }
-    s
-}
+use support::box_obj;
 
 fn build(scene: Value) -> Scene {
     let desc = serde_json::from_value(scene).expect("test scene parses");
-    let assets = Assets::from([("cube.obj".to_string(), cube_obj().into_bytes())]);
+    let assets = Assets::from([(
+        "cube.obj".to_string(),
+        box_obj(-DVec3::ONE, DVec3::ONE, false).into_bytes(),
+    )]);
     Scene::build(&desc, &assets).expect("test scene builds")
 }
 

@@ -1,37 +1,20 @@
 //! End-to-end renders of tiny scenes whose pixel values are known in closed form.
 
+mod support;
+
+use glam::DVec3;
 use spindle_common::scene::SceneDescription;
 use spindle_common::tile::{TileRect, split_centre_first};
 use spindle_render::{Assets, Scene, render_tile};
+use support::box_obj;
 
-/// An axis-aligned box `[-10, 10]² × [0, thickness]` as OBJ text, with one normal per face (so
-/// the shading normals are exactly the face normals).
+/// The slab `[-10, 10]² × [0, thickness]`, optionally without its back face (z = 0).
 fn slab_obj(thickness: f64, open_back: bool) -> String {
-    let mut s = String::new();
-    for i in 0..8 {
-        let x = if i & 1 == 1 { 10.0 } else { -10.0 };
-        let y = if i & 2 == 2 { 10.0 } else { -10.0 };
-        let z = if i & 4 == 4 { thickness } else { 0.0 };
-        s += &format!("v {x} {y} {z}\n");
-    }
-    s += "vn 0 0 -1\nvn 0 0 1\nvn 0 -1 0\nvn 0 1 0\nvn -1 0 0\nvn 1 0 0\n";
-    // Quads wound counter-clockwise seen from outside (1-based indices).
-    let faces = [
-        (1, [1, 3, 4, 2]),
-        (2, [5, 6, 8, 7]),
-        (3, [1, 2, 6, 5]),
-        (4, [3, 7, 8, 4]),
-        (5, [1, 5, 7, 3]),
-        (6, [2, 4, 8, 6]),
-    ];
-    // The back face (z = 0, normal −z) is the first; an open slab leaves it out.
-    for &(n, q) in &faces[open_back as usize..] {
-        s += &format!(
-            "f {}//{n} {}//{n} {}//{n} {}//{n}\n",
-            q[0], q[1], q[2], q[3]
-        );
-    }
-    s
+    box_obj(
+        DVec3::new(-10.0, -10.0, 0.0),
+        DVec3::new(10.0, 10.0, thickness),
+        open_back,
+    )
 }
 
 /// A camera looking down −z at a glass slab (z from 0 to `thickness`, scaled by `scale` about

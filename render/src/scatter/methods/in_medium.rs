@@ -27,15 +27,11 @@ pub fn estimate(
     sampler: &mut Sampler,
     stats: &mut RenderStats,
 ) -> Rgb {
-    let m = settings.samples_per_segment.max(1);
-    let equiangular = Equiangular::new(&connection.ends, length);
-    let mut sum = Rgb::ZERO;
-    for j in 0..m {
-        let xi = (j as f64 + sampler.next_f64()) / f64::from(m);
-        let (t, weight) = equiangular.sample(xi);
-        sum += weight * point_radiance(connection, t, stats);
-    }
-    sum / f64::from(m)
+    Equiangular::new(&connection.ends, length).estimate(
+        settings.samples_per_segment,
+        sampler,
+        |t| point_radiance(connection, t, stats),
+    )
 }
 
 /// `C(t)` of the module doc at the camera point `V(t)`.

@@ -21,6 +21,8 @@ pub mod straight_line;
 
 use glam::DVec3;
 
+use crate::Rgb;
+use crate::sampler::Sampler;
 use crate::scatter::methods::connect::Connection;
 use crate::scatter::prune::SegmentQuery;
 use crate::scatter::triangle::ends::{DepthRange, PathEnds};
@@ -80,6 +82,23 @@ impl Equiangular {
             angles: usable.then(|| ((-x0).atan2(h), (length - x0).atan2(h))),
             length,
         }
+    }
+
+    /// `(1/M) Σ_j C(t_j)/q(t_j)` over `M = m` strata of the angle, one jittered point in each.
+    pub(crate) fn estimate(
+        &self,
+        m: u32,
+        sampler: &mut Sampler,
+        mut radiance: impl FnMut(f64) -> Rgb,
+    ) -> Rgb {
+        let m = m.max(1);
+        let mut sum = Rgb::ZERO;
+        for j in 0..m {
+            let xi = (f64::from(j) + sampler.next_f64()) / f64::from(m);
+            let (t, weight) = self.sample(xi);
+            sum += weight * radiance(t);
+        }
+        sum / f64::from(m)
     }
 
     /// The camera point at the quantile `xi ∈ [0, 1)` and its weight `1/q(t)`.
