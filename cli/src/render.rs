@@ -54,7 +54,7 @@ pub struct RenderArgs {
     /// Tile edge in pixels on the local farm.
     #[arg(long, default_value_t = DEFAULT_TILE_SIZE)]
     pub tile_size: u32,
-    /// Print the render statistics.
+    /// Print the render statistics and the mean of each layer (total, surface, single_scatter).
     #[arg(long)]
     pub stats: bool,
 }
