@@ -4,7 +4,7 @@
 //! ratio), [`scaling`] (time per ray against triangle count), [`pruning`] (what each pruning
 //! stage culls and what it saves), [`memory`] (peak resident memory of a renderer process
 //! against triangle count), [`throughput`] (throughput of the local farm and the coordinator's
-//! overhead per tile). Every figure is printed with its setup and kept in the output folder
+//! overhead per tile), [`lights`] (the noise of area lights against point lights). Every figure is printed with its setup and kept in the output folder
 //! as CSV and PNG plots (`summary.txt` holds the printed record).
 //!
 //! Timing ([`runner`]): renders run on a private single-thread rayon pool, and each figure is
@@ -12,6 +12,7 @@
 //! measured in the same run, never absolute times across runs. Nothing here asserts a speed.
 
 mod accuracy;
+mod lights;
 mod memory;
 mod metric;
 mod plot;
@@ -84,6 +85,7 @@ pub enum Study {
     Pruning,
     Memory,
     Throughput,
+    Lights,
 }
 
 fn main() -> ExitCode {
@@ -137,6 +139,9 @@ fn run(args: &BenchArgs) -> Result<()> {
     }
     if wants(Study::Throughput) {
         throughput::run(&mut report, args)?;
+    }
+    if wants(Study::Lights) {
+        lights::run(&mut report, args)?;
     }
     report.line(format!(
         "bench finished in {:.1} s",

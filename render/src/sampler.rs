@@ -1,14 +1,25 @@
-//! Counter-based random numbers: a pixel's samples are the same bits on any worker, thread or tile.
+//! Deterministic sample numbers: a pixel's samples are the same bits on any worker, thread or
+//! tile, and they are spread evenly over the pixel's samples.
 //!
 //! The `k`-th number of sample `s` of pixel `(x, y)` under seed `seed` is a pure function of
-//! `(seed, x, y, s, k)`: a strong 64-bit integer hash (splitmix64's finaliser, applied in a
-//! chain) of the packed key. Nothing is shared between pixels and there is no global state, so a
-//! failing pixel can be replayed alone.
+//! `(seed, x, y, s, k)`. Dimensions come in pairs, as pbrt-v4's padded Sobol sampler does: the
+//! leading 24 bits of dimensions `2i` and `2i + 1` are the first two dimensions of point `s` of an
+//! Owen-scrambled, shuffled Sobol sequence (`sobol_burley`) keyed by `(seed, x, y, i)`. Over the
+//! first `2^m` samples of a pixel each pair is a (0, 2)-net — every elementary box of area
+//! `2^{-m}` in the unit square holds one point — so smooth integrands converge faster than
+//! `N^{-1/2}`; pairs, and pixels, are independent of each other. The remaining 29 bits, and whole
+//! numbers of samples past the sequence's 2¹⁶, come from a strong 64-bit hash (splitmix64's
+//! finaliser in a chain) of the full key. Nothing is shared between pixels and there is no
+//! global state, so a failing pixel can be replayed alone.
 
 /// The random numbers of one camera sample of one pixel.
 #[derive(Debug, Clone)]
 pub struct Sampler {
+    /// The hash key of (seed, pixel, sample).
     key: u64,
+    /// The Sobol scramble of (seed, pixel).
+    scramble: u32,
+    sample: u32,
     dimension: u64,
 }
 
@@ -21,19 +32,43 @@ fn mix(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// Separates the scramble's hash from the samples' keys.
+const SCRAMBLE_DOMAIN: u64 = 0x736F_626F_6C5F_6B65;
+
+/// Samples of one pixel beyond this index are independent hashes (the sequence's length).
+const SOBOL_SAMPLES: u32 = 1 << 16;
+
 impl Sampler {
     /// The sampler of sample `sample` of pixel `(pixel_x, pixel_y)` under `seed`.
     pub fn new(seed: u64, pixel_x: u32, pixel_y: u32, sample: u32) -> Sampler {
         let pixel = ((pixel_x as u64) << 32) | pixel_y as u64;
-        let key = mix(mix(mix(seed) ^ pixel) ^ sample as u64);
-        Sampler { key, dimension: 0 }
+        let pixel_key = mix(mix(seed) ^ pixel);
+        Sampler {
+            key: mix(pixel_key ^ sample as u64),
+            scramble: (mix(pixel_key ^ SCRAMBLE_DOMAIN) >> 32) as u32,
+            sample,
+            dimension: 0,
+        }
     }
 
-    /// The next number in `[0, 1)` (53 random bits), advancing the dimension counter.
+    /// The next number in `[0, 1)` (53 bits), advancing the dimension counter.
     pub fn next_f64(&mut self) -> f64 {
-        let bits = mix(self.key ^ mix(self.dimension));
+        let hash = mix(self.key ^ mix(self.dimension));
+        let bits = if self.sample < SOBOL_SAMPLES {
+            // Dimensions 2i and 2i + 1 are the first two of a sequence scrambled (and its
+            // points shuffled) for pair i alone.
+            let pair_scramble =
+                (mix(u64::from(self.scramble) ^ (self.dimension >> 1)) >> 32) as u32;
+            let within = (self.dimension & 1) as u32;
+            // An f32 in [0, 1) from the sequence carries 24 significant bits at most.
+            let sobol = sobol_burley::sample(self.sample, within, pair_scramble);
+            let high = ((f64::from(sobol) * (1u64 << 24) as f64) as u64).min((1 << 24) - 1);
+            (high << 29) | (hash >> 35)
+        } else {
+            hash >> 11
+        };
         self.dimension += 1;
-        (bits >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+        bits as f64 * (1.0 / (1u64 << 53) as f64)
     }
 
     /// Two numbers in `[0, 1)`.

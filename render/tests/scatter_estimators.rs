@@ -170,9 +170,12 @@ fn eta_one_matches(method: &str) {
 /// segments, which point sampling (an independent solver) shows too, so:
 /// * for η − 1 ∈ {1e-6, 1e-5, 1e-4} it is within 1e-4 of η = 1 (measured at most 2.5e-5, 2.2e-5
 ///   and 5.4e-5, mostly the noise of the η = 1 estimate);
-/// * for η − 1 ∈ {1e-6, 1e-5, 1e-4, 1e-3}, `single_scatter` itself is within 1e-4 of point
-///   sampling at the same η (M = 4096, 4 camera samples; measured at most 2.6e-5). At η = 1.001
-///   it lies 1.1e-4 to 3.8e-4 from η = 1: the physical change, not asserted.
+/// * for η − 1 ∈ {1e-6, 1e-5, 1e-4, 1e-3}, `single_scatter` itself is within 2e-4 of point
+///   sampling at the same η (M = 4096, 4 camera samples against 1). Both are noisy estimates:
+///   measured at most 1.03e-4 with these sample counts (bumpy sphere, second segment, η = 1 +
+///   1e-6), and at most 2.6e-5 when both take 8× the samples (32 and 8), so the bound is the
+///   estimates' noise, not a bias. At η = 1.001 it lies 1.1e-4 to 3.8e-4 from η = 1: the
+///   physical change, not asserted.
 ///
 /// The near-1 cases rest on the Newton solver stepping on the scaled residual `‖h‖·f`
 /// (`Residual::scaled`) and on the trace ending arcs on a range end at the triangle's plane
@@ -216,7 +219,7 @@ fn eta_near_one_matches_eta_one() {
                 if eta < 1.0002 {
                     assert!(to_eta_one < 1e-4, "{name}, eta {eta}: {to_eta_one}");
                 }
-                assert!(to_points < 1e-4, "{name}, eta {eta}: {to_points}");
+                assert!(to_points < 2e-4, "{name}, eta {eta}: {to_points}");
             }
         }
     }

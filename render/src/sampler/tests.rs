@@ -38,3 +38,54 @@ fn numbers_are_uniform_in_unit_interval() {
     assert!((mean - 0.5).abs() < 5.0 * se_mean, "mean {mean}");
     assert!((var - 1.0 / 12.0).abs() < 1e-3, "variance {var}");
 }
+
+/// Over the first 16 samples of a pixel, each pair of dimensions `(2i, 2i + 1)` puts exactly one
+/// point in each cell of the 4×4 grid (and of the 2×8 and 8×2 grids): the (0, 2)-net property of
+/// a scrambled Sobol pair, which independent numbers lack (16 numbers fill all 16 cells with
+/// probability 16!/16¹⁶ ≈ 1.2e-6).
+#[test]
+fn a_pixels_samples_are_stratified_in_pairs_of_dimensions() {
+    for (x, y) in [(0, 0), (17, 3), (640, 479)] {
+        for pair in [0usize, 1, 2, 5] {
+            for (cols, rows) in [(4usize, 4usize), (2, 8), (8, 2)] {
+                let mut cells = vec![0u32; 16];
+                for s in 0..16 {
+                    let mut r = Sampler::new(9, x, y, s);
+                    for _ in 0..2 * pair {
+                        r.next_f64();
+                    }
+                    let [u, v] = r.next_2d();
+                    let (i, j) = ((u * cols as f64) as usize, (v * rows as f64) as usize);
+                    cells[j * cols + i] += 1;
+                }
+                assert!(
+                    cells.iter().all(|&c| c == 1),
+                    "pixel ({x}, {y}) dims {}..{}, {cols}x{rows}: {cells:?}",
+                    2 * pair,
+                    2 * pair + 1
+                );
+            }
+        }
+    }
+}
+
+/// Beyond the sequence's dimensions the numbers are still uniform (the hash alone).
+#[test]
+fn numbers_beyond_the_sequence_are_uniform() {
+    let n = 20_000;
+    let mut sum = 0.0;
+    for i in 0..n {
+        let mut r = Sampler::new(3, i % 100, i / 100, 0);
+        for _ in 0..300 {
+            r.next_f64();
+        }
+        let u = r.next_f64();
+        assert!((0.0..1.0).contains(&u));
+        sum += u;
+    }
+    let mean = sum / n as f64;
+    assert!(
+        (mean - 0.5).abs() < 5.0 * (1.0f64 / 12.0 / n as f64).sqrt(),
+        "mean {mean}"
+    );
+}
