@@ -78,6 +78,15 @@ pub enum Light {
         radius: f64,
         radiance: Rgb,
     },
+    /// A distant light (the sun): rays travel along `direction` (need not be unit length) and
+    /// give `irradiance` (W/m²) on a surface facing them. `angular_diameter` (degrees, default 0:
+    /// parallel rays) spreads them over a disk of uniform radiance, seen by the camera.
+    Directional {
+        direction: Vec3,
+        irradiance: Rgb,
+        #[serde(default)]
+        angular_diameter: f64,
+    },
 }
 
 /// One object: a shape, placed by a transform, made of a material.

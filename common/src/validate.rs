@@ -184,7 +184,45 @@ fn check_light(path: &str, light: &Light) -> Check {
             check_length(&format!("{path}.radius"), *radius)?;
             check_rgb_at_least(&format!("{path}.radiance"), radiance, 0.0)
         }
+        Light::Directional {
+            direction,
+            irradiance,
+            angular_diameter,
+        } => {
+            check_direction(&format!("{path}.direction"), direction)?;
+            check_rgb_at_least(&format!("{path}.irradiance"), irradiance, 0.0)?;
+            let field = format!("{path}.angular_diameter");
+            if !(angular_diameter.is_finite()
+                && (0.0..=MAX_ANGULAR_DIAMETER).contains(angular_diameter))
+            {
+                return Err(SceneError::new(
+                    field,
+                    format!(
+                        "must be between 0 and {MAX_ANGULAR_DIAMETER} degrees (the sun is about \
+                         0.53), got {angular_diameter}"
+                    ),
+                ));
+            }
+            Ok(())
+        }
     }
+}
+
+/// The widest distant light, in degrees: beyond this it is an area light, not a direction.
+pub const MAX_ANGULAR_DIAMETER: f64 = 30.0;
+
+/// A direction: finite and not zero.
+fn check_direction(path: &str, v: &[f64; 3]) -> Check {
+    if !v.iter().all(|c| c.is_finite()) {
+        return Err(SceneError::new(path, format!("must be finite, got {v:?}")));
+    }
+    if v.iter().all(|&c| c == 0.0) {
+        return Err(SceneError::new(
+            path,
+            "must be a direction, got the zero vector",
+        ));
+    }
+    Ok(())
 }
 
 fn check_object(path: &str, object: &Object) -> Check {

@@ -1,6 +1,12 @@
-//! Light sources: isotropic point lights and spherical area lights.
+//! Light sources: isotropic point lights, spherical area lights and distant (directional)
+//! lights.
 //!
-//! Lights live outside every medium, in air. A sphere light is seen by camera paths (directly,
+//! A directional light — the sun — is parallel rays, or a small disk of directions. Where the
+//! single-scattering solve needs a light *point*, it gets one [`FAR`] scene radii away against
+//! the rays, whose irradiance is made exact at every receiver (`LightPoint::Distant`): the only
+//! approximation left is that rays from that point spread by at most `1/FAR` radians.
+//!
+//! Lights live outside every medium, in air (a point or sphere light may also sit inside one). A sphere light is seen by camera paths (directly,
 //! in reflection and in transmission) through [`Light::intersect`], and lights diffuse surfaces
 //! through [`Light::sample_incident`] (uniform over the cone the sphere subtends, which has no
 //! wasted samples on its far side). [`Light::sample_area`] samples a sphere by area, for
@@ -8,6 +14,7 @@
 
 use glam::DVec3;
 use spindle_common::scene as desc;
+use spindle_common::validate::MAX_ANGULAR_DIAMETER;
 
 use crate::Rgb;
 use crate::ray::Ray;
@@ -23,6 +30,30 @@ pub enum Light {
         radius: f64,
         radiance: Rgb,
     },
+    /// A distant light: rays travel along the unit `direction` from a disk of directions of
+    /// half-angle `acos(cos_half_angle)` (1: parallel rays), giving `irradiance` on a surface
+    /// facing it. Where a light *point* is needed it is put `distance` (= [`FAR`] scene radii)
+    /// from the scene's centre `anchor`, against the rays.
+    Directional {
+        direction: DVec3,
+        irradiance: Rgb,
+        cos_half_angle: f64,
+        anchor: DVec3,
+        distance: f64,
+    },
+}
+
+/// How far, in radii of the objects' bounding sphere, a directional light's points are put:
+/// rays from one point to anywhere in the scene differ in direction by at most `1/FAR` radians
+/// (0.0057°, a fiftieth of the sun's own angular radius), and [`Light::Directional`]'s
+/// irradiance does not fall off with distance (see `LightPoint::Distant`).
+pub const FAR: f64 = 1e4;
+
+/// The sphere the objects lie in, which a directional light must reach from afar.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SceneSphere {
+    pub center: DVec3,
+    pub radius: f64,
 }
 
 /// Light arriving at a point from one light sample.
@@ -62,6 +93,10 @@ pub enum LightError {
     },
     #[error("radius: must be finite and > 0, got {0}")]
     Radius(f64),
+    #[error("direction: must be a finite, non-zero direction, got {0:?}")]
+    Direction([f64; 3]),
+    #[error("angular_diameter: must be in [0, 30] degrees, got {0}")]
+    AngularDiameter(f64),
 }
 
 fn power(field: &'static str, v: [f64; 3]) -> Result<Rgb, LightError> {
@@ -83,15 +118,22 @@ fn position(field: &'static str, v: [f64; 3]) -> Result<DVec3, LightError> {
 }
 
 impl Light {
-    /// The light's position (a sphere light's centre).
+    /// The light's position (a sphere light's centre; a directional light's far point).
     pub fn center(&self) -> DVec3 {
         match *self {
             Light::Point { position, .. } => position,
             Light::Sphere { center, .. } => center,
+            Light::Directional {
+                direction,
+                anchor,
+                distance,
+                ..
+            } => anchor - direction * distance,
         }
     }
 
-    pub fn new(light: &desc::Light) -> Result<Light, LightError> {
+    /// The light of a scene description; a directional light is placed against `scene`.
+    pub fn new(light: &desc::Light, scene: SceneSphere) -> Result<Light, LightError> {
         Ok(match *light {
             desc::Light::Point {
                 position: p,
@@ -114,7 +156,64 @@ impl Light {
                     radiance: power("radiance", radiance)?,
                 }
             }
+            desc::Light::Directional {
+                direction,
+                irradiance,
+                angular_diameter,
+            } => {
+                let d = DVec3::from_array(direction);
+                let unit = (d / d.abs().max_element())
+                    .try_normalize()
+                    .filter(|_| d.is_finite())
+                    .ok_or(LightError::Direction(direction))?;
+                if !(angular_diameter.is_finite()
+                    && (0.0..=MAX_ANGULAR_DIAMETER).contains(&angular_diameter))
+                {
+                    return Err(LightError::AngularDiameter(angular_diameter));
+                }
+                Light::Directional {
+                    direction: unit,
+                    irradiance: power("irradiance", irradiance)?,
+                    cos_half_angle: (0.5 * angular_diameter).to_radians().cos(),
+                    anchor: scene.center,
+                    distance: FAR * scene.radius.max(f64::MIN_POSITIVE),
+                }
+            }
         })
+    }
+
+    /// For a directional light with a disk of directions: its radiance `E / (π sin²α)` (the
+    /// irradiance `E` of a disk of half-angle α at normal incidence is `L π sin²α`).
+    fn disk_radiance(irradiance: Rgb, cos_half_angle: f64) -> Rgb {
+        let sin2 = (1.0 - cos_half_angle * cos_half_angle).max(0.0);
+        irradiance / (std::f64::consts::PI * sin2)
+    }
+
+    /// A direction of a directional light's disk toward the light (against the rays), from two
+    /// uniform numbers, and the weight `L / pdf_ω` it carries (`E` itself for parallel rays).
+    pub fn distant_direction(&self, u: [f64; 2]) -> Option<(DVec3, Rgb)> {
+        let Light::Directional {
+            direction,
+            irradiance,
+            cos_half_angle,
+            ..
+        } = *self
+        else {
+            return None;
+        };
+        if cos_half_angle >= 1.0 {
+            return Some((-direction, irradiance));
+        }
+        let one_minus_cos_max = 1.0 - cos_half_angle;
+        let one_minus_cos = u[0] * one_minus_cos_max;
+        let cos = 1.0 - one_minus_cos;
+        let sin = (one_minus_cos * (2.0 - one_minus_cos)).max(0.0).sqrt();
+        let phi = 2.0 * std::f64::consts::PI * u[1];
+        let (t1, t2) = (-direction).any_orthonormal_pair();
+        let dir = (-direction * cos + (t1 * phi.cos() + t2 * phi.sin()) * sin).normalize();
+        let weight = Light::disk_radiance(irradiance, cos_half_angle)
+            * (2.0 * std::f64::consts::PI * one_minus_cos_max);
+        Some((dir, weight))
     }
 
     /// The nearest `t > 0` where `ray` (unit direction) hits the light's surface, and the
@@ -127,6 +226,14 @@ impl Light {
                 radius,
                 radiance,
             } => sphere_hit(ray.origin, ray.dir, center, radius).map(|t| (t, radiance)),
+            // Behind everything: any surface hit is nearer.
+            Light::Directional {
+                direction,
+                irradiance,
+                cos_half_angle,
+                ..
+            } => (cos_half_angle < 1.0 && ray.dir.dot(-direction) >= cos_half_angle)
+                .then(|| (f64::MAX, Light::disk_radiance(irradiance, cos_half_angle))),
         }
     }
 
@@ -178,13 +285,22 @@ impl Light {
                     weight: radiance / pdf,
                 })
             }
+            Light::Directional { distance, .. } => {
+                let (dir, weight) = self.distant_direction(u)?;
+                // Twice the far point's distance: past every object, wherever `p` is among them.
+                Some(IncidentSample {
+                    dir,
+                    distance: 2.0 * distance,
+                    weight,
+                })
+            }
         }
     }
 
     /// A point uniformly distributed over a sphere light's surface (`None` for a point light).
     pub fn sample_area(&self, u: [f64; 2]) -> Option<AreaSample> {
         match *self {
-            Light::Point { .. } => None,
+            Light::Point { .. } | Light::Directional { .. } => None,
             Light::Sphere { center, radius, .. } => {
                 let z = 1.0 - 2.0 * u[0];
                 let r = (1.0 - z * z).max(0.0).sqrt();

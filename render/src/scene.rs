@@ -19,7 +19,7 @@ use crate::bvh::Bvh;
 use crate::camera::Camera;
 use crate::containment;
 use crate::interfaces::{self, SecondInterface};
-use crate::light::Light;
+use crate::light::{Light, SceneSphere};
 use crate::medium::Medium;
 use crate::mesh::{MeshReport, TriangleMesh};
 use crate::obj::parse_obj;
@@ -142,13 +142,6 @@ impl Scene {
                 format!("must be <= {MAX_DEPTH_LIMIT}"),
             ));
         }
-        let lights = scene
-            .lights
-            .iter()
-            .enumerate()
-            .map(|(i, l)| Light::new(l).map_err(|e| nested_error(format!("lights[{i}]"), e)))
-            .collect::<Result<Vec<_>, _>>()?;
-
         let objects = scene
             .objects
             .par_iter()
@@ -202,6 +195,14 @@ impl Scene {
         } else {
             1.0
         };
+
+        let reach = objects_sphere(&objects);
+        let lights = scene
+            .lights
+            .iter()
+            .enumerate()
+            .map(|(i, l)| Light::new(l, reach).map_err(|e| nested_error(format!("lights[{i}]"), e)))
+            .collect::<Result<Vec<_>, _>>()?;
 
         let camera_medium = medium_at(&objects, "the camera", camera.position(), &mut warnings);
         let mut light_media = Vec::with_capacity(lights.len());
@@ -486,6 +487,25 @@ fn medium_at(
         ));
     }
     Some(innermost)
+}
+
+/// The sphere around every object's bounds (the unit sphere when there are none).
+fn objects_sphere(objects: &[Object]) -> SceneSphere {
+    let mut bounds: Option<(DVec3, DVec3)> = None;
+    for o in objects {
+        let (lo, hi) = o.mesh.bounds();
+        bounds = Some(bounds.map_or((lo, hi), |(a, b)| (a.min(lo), b.max(hi))));
+    }
+    match bounds {
+        Some((lo, hi)) if (hi - lo).is_finite() && hi.cmpge(lo).all() => SceneSphere {
+            center: 0.5 * (lo + hi),
+            radius: (0.5 * (hi - lo).length()).max(1e-6),
+        },
+        _ => SceneSphere {
+            center: DVec3::ZERO,
+            radius: 1.0,
+        },
+    }
 }
 
 /// A sphere light must lie wholly inside or wholly outside each medium: one that crosses a

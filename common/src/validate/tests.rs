@@ -9,7 +9,9 @@ fn full_scene() -> Value {
         "film": { "width": 64, "height": 48, "spp": 2, "seed": 7 },
         "lights": [
             { "type": "point", "position": [0, 4, -3], "intensity": [10, 10, 10] },
-            { "type": "sphere", "center": [2, 3, -2], "radius": 0.5, "radiance": [5, 5, 5] }
+            { "type": "sphere", "center": [2, 3, -2], "radius": 0.5, "radiance": [5, 5, 5] },
+            { "type": "directional", "direction": [1, -2, 0], "irradiance": [2, 2, 2],
+              "angular_diameter": 0.53 }
         ],
         "objects": [
             {
@@ -83,7 +85,7 @@ fn rejects_value(edit: impl FnOnce(&mut SceneDescription), path: &str, word: &st
 #[test]
 fn full_scene_is_valid() {
     let scene = SceneDescription::from_json(&full_scene().to_string()).expect("valid");
-    assert_eq!(scene.lights.len(), 2);
+    assert_eq!(scene.lights.len(), 3);
     assert_eq!(scene.objects.len(), 3);
     assert_eq!(
         scene.objects[1].material,
@@ -408,6 +410,25 @@ fn light_values_are_checked() {
         "within ±1e6",
     );
     assert!(with("/lights/0/intensity", json!([0, 0, 0])).is_ok());
+    let sun = |field: &str, value: Value| {
+        let mut light = json!({"type": "directional", "direction": [0, -1, 0],
+                               "irradiance": [1, 1, 1], "angular_diameter": 0.53});
+        light[field] = value;
+        with("/lights/0", light)
+    };
+    assert!(sun("angular_diameter", json!(0.53)).is_ok());
+    for (field, value, problem) in [
+        ("direction", json!([0, 0, 0]), "zero vector"),
+        ("irradiance", json!([1, -1, 1]), ">= 0"),
+        ("angular_diameter", json!(31), "between 0 and 30"),
+        ("angular_diameter", json!(-0.1), "between 0 and 30"),
+    ] {
+        let e = sun(field, value).unwrap_err().to_string();
+        assert!(
+            e.starts_with(&format!("lights[0].{field}")) && e.contains(problem),
+            "{field}: {e}"
+        );
+    }
 }
 
 #[test]

@@ -1,4 +1,9 @@
 use super::*;
+
+const UNIT: SceneSphere = SceneSphere {
+    center: DVec3::ZERO,
+    radius: 1.0,
+};
 use crate::sampler::Sampler;
 
 #[test]
@@ -58,15 +63,30 @@ fn area_samples_lie_on_the_sphere_with_uniform_density() {
 
 #[test]
 fn bad_lights_are_rejected_by_field() {
-    let e = Light::new(&desc::Light::Sphere {
-        center: [0.0; 3],
-        radius: 0.0,
-        radiance: [1.0; 3],
-    });
+    let e = Light::new(
+        &desc::Light::Sphere {
+            center: [0.0; 3],
+            radius: 0.0,
+            radiance: [1.0; 3],
+        },
+        UNIT,
+    );
     assert!(e.unwrap_err().to_string().starts_with("radius:"));
-    let e = Light::new(&desc::Light::Point {
-        position: [0.0; 3],
-        intensity: [1.0, f64::NAN, 0.0],
-    });
+    let e = Light::new(
+        &desc::Light::Point {
+            position: [0.0; 3],
+            intensity: [1.0, f64::NAN, 0.0],
+        },
+        UNIT,
+    );
     assert!(e.unwrap_err().to_string().starts_with("intensity:"));
+    let e = Light::new(
+        &desc::Light::Directional {
+            direction: [0.0; 3],
+            irradiance: [1.0; 3],
+            angular_diameter: 0.0,
+        },
+        UNIT,
+    );
+    assert!(e.unwrap_err().to_string().starts_with("direction:"));
 }

@@ -39,13 +39,18 @@ pub enum LightPoint {
         normal: DVec3,
         radiance_over_pdf: Rgb,
     },
+    /// A directional light's far point (`Light::Directional`): its intensity toward a receiver
+    /// is `irradiance · ‖p − position‖²`, so the irradiance it gives is the same everywhere.
+    Distant { position: DVec3, irradiance: Rgb },
 }
 
 impl LightPoint {
     /// Where the light point is.
     pub fn position(&self) -> DVec3 {
         match *self {
-            LightPoint::Point { position, .. } | LightPoint::Area { position, .. } => position,
+            LightPoint::Point { position, .. }
+            | LightPoint::Area { position, .. }
+            | LightPoint::Distant { position, .. } => position,
         }
     }
 
@@ -65,6 +70,10 @@ impl LightPoint {
                 };
                 radiance_over_pdf * normal.dot(toward).max(0.0)
             }
+            LightPoint::Distant {
+                position,
+                irradiance,
+            } => irradiance * p.distance_squared(position),
         }
     }
 
@@ -75,6 +84,7 @@ impl LightPoint {
             LightPoint::Area {
                 radiance_over_pdf, ..
             } => radiance_over_pdf.max_element() <= 0.0,
+            LightPoint::Distant { irradiance, .. } => irradiance.max_element() <= 0.0,
         }
     }
 }
@@ -98,6 +108,15 @@ pub fn sample_light(light: &Light, object: BoundingSphere, u: [f64; 2]) -> Light
             position,
             intensity,
         },
+        Light::Directional {
+            anchor, distance, ..
+        } => {
+            let (toward, irradiance) = light.distant_direction(u).unwrap_or_default();
+            LightPoint::Distant {
+                position: anchor + toward * distance,
+                irradiance,
+            }
+        }
         Light::Sphere {
             center,
             radius,

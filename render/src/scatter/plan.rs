@@ -16,6 +16,7 @@
 
 use spindle_common::scene::ScatterMethod;
 
+use crate::light::{FAR, Light};
 use crate::scatter::geometry::BoundingSphere;
 use crate::scene::{Material, Object, Scene};
 
@@ -143,8 +144,8 @@ pub fn describe_plan(scene: &Scene) -> Vec<String> {
         .collect()
 }
 
-/// The lines that say where the camera and the lights are with respect to the media, when not
-/// in the air: a camera path starts in the camera's medium; a light in a medium lights that
+/// The lines that say how a directional light is modelled, and where the camera and the lights
+/// are with respect to the media, when not in the air: a camera path starts in the camera's medium; a light in a medium lights that
 /// medium along straight paths and no other medium.
 fn describe_placement(scene: &Scene) -> Vec<String> {
     let mut lines = Vec::new();
@@ -153,7 +154,18 @@ fn describe_placement(scene: &Scene) -> Vec<String> {
             "camera: inside objects[{o}] (camera paths start in its medium)"
         ));
     }
-    for j in 0..scene.lights().len() {
+    for (j, light) in scene.lights().iter().enumerate() {
+        if let Light::Directional {
+            anchor, distance, ..
+        } = *light
+        {
+            lines.push(format!(
+                "lights[{j}]: directional; its light points lie {distance:.3e} from the scene's \
+                 centre {anchor} ({FAR:.0e} scene radii), so their rays spread by at most \
+                 {:.1e}° across the scene; the irradiance is exact everywhere",
+                (1.0 / FAR).to_degrees()
+            ));
+        }
         let Some(o) = scene.light_medium(j) else {
             continue;
         };
