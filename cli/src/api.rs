@@ -13,7 +13,7 @@ use reqwest::StatusCode;
 use serde::de::DeserializeOwned;
 use spindle_common::protocol::{
     ApiError, AssetStored, IDEMPOTENCY_KEY_HEADER, JobInfo, JobList, MissingAssetsRequest,
-    MissingAssetsResponse, SubmitJob,
+    MissingAssetsResponse, SubmitJob, WorkerList,
 };
 
 /// Tries of a request whose failure was transient (connection refused, 5xx).
@@ -110,6 +110,21 @@ impl Api {
     pub async fn cancel(&self, id: u64) -> Result<JobInfo> {
         self.json(|| self.http.post(self.url(&format!("/v1/jobs/{id}/cancel"))))
             .await
+    }
+
+    /// `GET /v1/workers`.
+    pub async fn workers(&self) -> Result<WorkerList> {
+        self.json(|| self.http.get(self.url("/v1/workers"))).await
+    }
+
+    /// `POST /v1/workers/{id}/drain` (an id or a name).
+    pub async fn drain(&self, name_or_id: &str) -> Result<WorkerList> {
+        let mut url = reqwest::Url::parse(&self.url("/v1/workers"))?;
+        url.path_segments_mut()
+            .map_err(|()| anyhow!("{}: cannot be a base URL", self.base))?
+            .push(name_or_id)
+            .push("drain");
+        self.json(|| self.http.post(url.clone())).await
     }
 
     /// `GET /v1/jobs/{id}/image.exr` (the final image) or `image.png` (the preview).

@@ -10,6 +10,7 @@ mod render;
 mod secret;
 mod status;
 mod submit;
+mod workers;
 
 use std::io::IsTerminal;
 use std::process::ExitCode;
@@ -47,6 +48,8 @@ enum Command {
     Fetch(fetch::FetchArgs),
     /// Cancel a job.
     Cancel(cancel::CancelArgs),
+    /// List the farm's workers (state, lease, labels, tiles, throughput), or drain one.
+    Workers(workers::WorkersArgs),
 }
 
 fn main() -> ExitCode {
@@ -87,5 +90,6 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Status(args) => status::run(&api()?, args).await,
         Command::Fetch(args) => fetch::run(&api()?, args).await,
         Command::Cancel(args) => cancel::run(&api()?, args).await,
+        Command::Workers(args) => workers::run(&api()?, args).await,
     }
 }

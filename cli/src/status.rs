@@ -1,7 +1,7 @@
 //! `spindle status [JOB]`: one job's progress, or a table of every job.
 
 use anyhow::Result;
-use spindle_common::protocol::JobInfo;
+use spindle_common::protocol::{JobInfo, format_labels};
 
 use crate::api::Api;
 
@@ -53,12 +53,22 @@ pub async fn run(api: &Api, args: &StatusArgs) -> Result<()> {
     Ok(())
 }
 
-/// The job's state, with why nothing moves when no worker is connected.
+/// The job's state, with why nothing moves when no worker is connected or none may take it.
 fn state_label(j: &JobInfo) -> String {
-    if !j.state.is_finished() && j.workers_live == 0 {
-        format!("{} — no workers connected", j.state.as_str())
+    let state = j.state.as_str();
+    if j.state.is_finished() {
+        state.to_string()
+    } else if j.workers_live == 0 {
+        format!("{state} — no workers connected")
+    } else if j.workers_eligible == 0 && !j.requires.is_empty() {
+        format!(
+            "{state} — no live worker has labels {}",
+            format_labels(&j.requires)
+        )
+    } else if j.workers_eligible == 0 {
+        format!("{state} — every live worker is draining")
     } else {
-        j.state.as_str().to_string()
+        state.to_string()
     }
 }
 
@@ -99,7 +109,7 @@ fn describe(j: &JobInfo) -> String {
 }
 
 /// `HH:MM:SS` UTC of a time in ms since the Unix epoch.
-fn utc_time(ms: i64) -> String {
+pub fn utc_time(ms: i64) -> String {
     let s = ms.div_euclid(1000).rem_euclid(86_400);
     format!("{:02}:{:02}:{:02}Z", s / 3600, s / 60 % 60, s % 60)
 }
@@ -124,6 +134,8 @@ mod tests {
             error: None,
             recent_errors: Vec::new(),
             workers_live,
+            requires: Default::default(),
+            workers_eligible: workers_live,
             stats: Default::default(),
         }
     }
@@ -139,6 +151,14 @@ mod tests {
         assert!(text.starts_with("job 3: queued\n"), "{text}");
         let text = describe(&job(JobState::Done, 0));
         assert!(text.starts_with("job 3: done\n"), "{text}");
+        let mut picky = job(JobState::Queued, 2);
+        picky.requires.insert("pool".into(), "night".into());
+        picky.workers_eligible = 0;
+        let text = describe(&picky);
+        assert!(
+            text.starts_with("job 3: queued — no live worker has labels pool=night\n"),
+            "{text}"
+        );
     }
 
     #[test]

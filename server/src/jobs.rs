@@ -12,7 +12,8 @@ use std::time::Duration;
 
 use rusqlite::Connection;
 use spindle_common::protocol::{
-    JobInfo, JobSpec, JobState, RECENT_TILE_ERRORS, SubmitJob, TileError,
+    JobInfo, JobSpec, JobState, LOST_WORKERS_LISTED_S, RECENT_TILE_ERRORS, SubmitJob,
+    THROUGHPUT_WINDOW_S, TileError, WorkerInfo, WorkerState, format_labels,
 };
 use spindle_common::stats::RenderStats;
 use spindle_common::tile::{TileRect, split_centre_first};
@@ -43,6 +44,18 @@ pub struct Ledger {
 pub struct Worker {
     pub name: String,
     pub threads: u32,
+    pub version: String,
+    pub labels: BTreeMap<String, String>,
+    /// Told to drain: it gets no more leases (410) and its heartbeats answer `drain`.
+    pub draining: bool,
+    /// Wall-clock time it was last heard from, in ms since the Unix epoch.
+    pub last_seen_ms: i64,
+    /// Tiles accepted from it, and tile failures it reported, ever.
+    pub tiles_done: u64,
+    pub failures: u64,
+    /// When its tiles were accepted within the last [`THROUGHPUT_WINDOW_S`] (ms since the
+    /// Unix epoch, oldest first; trimmed as tiles arrive, at most [`MAX_RECENT_TILES`]).
+    pub recent_tiles: VecDeque<i64>,
     /// The worker counts as connected until then, unless it is in a lease poll: renewed by
     /// every request it makes, by one lease TTL.
     pub seen_until: Instant,
@@ -50,10 +63,45 @@ pub struct Worker {
     pub polls: u32,
 }
 
+/// Bound on [`Worker::recent_tiles`]: beyond it the throughput saturates rather than memory
+/// growing with a fast worker.
+pub const MAX_RECENT_TILES: usize = 100_000;
+
 impl Worker {
     /// Is the worker connected at `now`?
     pub fn is_live(&self, now: Instant) -> bool {
         self.polls > 0 || self.seen_until > now
+    }
+
+    /// May the worker take tiles of a job requiring `requires` at `now`: connected, not
+    /// draining, and labelled with every requirement.
+    pub fn eligible(&self, requires: &BTreeMap<String, String>, now: Instant) -> bool {
+        self.is_live(now) && !self.draining && self.has_labels(requires)
+    }
+
+    /// Does the worker carry every label of `requires`?
+    pub fn has_labels(&self, requires: &BTreeMap<String, String>) -> bool {
+        requires.iter().all(|(k, v)| self.labels.get(k) == Some(v))
+    }
+
+    /// Notes a tile accepted at `at_ms`.
+    pub(crate) fn tile_accepted(&mut self, at_ms: i64) {
+        self.tiles_done += 1;
+        if self.recent_tiles.len() == MAX_RECENT_TILES {
+            self.recent_tiles.pop_front();
+        }
+        self.recent_tiles.push_back(at_ms);
+        let since = at_ms - THROUGHPUT_WINDOW_S as i64 * 1000;
+        while self.recent_tiles.front().is_some_and(|&t| t < since) {
+            self.recent_tiles.pop_front();
+        }
+    }
+
+    /// Tiles accepted within the last [`THROUGHPUT_WINDOW_S`] before `now_ms`, per minute.
+    pub fn tiles_per_min(&self, now_ms: i64) -> f64 {
+        let since = now_ms - THROUGHPUT_WINDOW_S as i64 * 1000;
+        let n = self.recent_tiles.iter().filter(|&&t| t >= since).count();
+        n as f64 / (THROUGHPUT_WINDOW_S as f64 / 60.0)
     }
 }
 
@@ -62,6 +110,8 @@ pub struct Job {
     pub id: u64,
     pub spec: Arc<JobSpec>,
     pub priority: i32,
+    /// Worker labels a worker must carry to be leased this job's tiles.
+    pub requires: BTreeMap<String, String>,
     pub state: JobState,
     pub error: Option<String>,
     pub created_ms: i64,
@@ -132,6 +182,7 @@ impl Job {
             id,
             spec,
             priority,
+            requires: BTreeMap::new(),
             state: JobState::Queued,
             error: None,
             created_ms,
@@ -161,8 +212,8 @@ impl Job {
     }
 
     /// The job as clients see it, at wall-clock time `now_ms`, with `workers_live` workers
-    /// connected.
-    pub fn info(&self, now_ms: i64, workers_live: u32) -> JobInfo {
+    /// connected, `workers_eligible` of which may take its tiles.
+    pub fn info(&self, now_ms: i64, workers_live: u32, workers_eligible: u32) -> JobInfo {
         let elapsed_ms = match self.started_ms {
             Some(start) => (self.finished_ms.unwrap_or(now_ms) - start).max(0),
             None => 0,
@@ -185,6 +236,8 @@ impl Job {
             error: self.error.clone(),
             recent_errors: self.recent_errors.iter().cloned().collect(),
             workers_live,
+            requires: self.requires.clone(),
+            workers_eligible,
             stats: self.stats,
         }
     }
@@ -211,6 +264,7 @@ impl Job {
 pub struct NewJob {
     pub spec: JobSpec,
     pub priority: i32,
+    pub requires: BTreeMap<String, String>,
     pub idempotency_key: Option<String>,
     /// blake3 of the canonical request, to tell a retry from a different request with the
     /// same key.
@@ -229,6 +283,7 @@ impl NewJob {
                 tile_size: submit.tile_size,
             },
             priority: submit.priority,
+            requires: submit.requires,
             idempotency_key,
         })
     }
@@ -249,6 +304,8 @@ impl Ledger {
             let spec: JobSpec = serde_json::from_str(&row.spec_json)
                 .map_err(|e| anyhow::anyhow!("job {}: stored spec: {e}", row.id))?;
             let mut job = Job::new(row.id, Arc::new(spec), row.priority, row.created_ms);
+            job.requires = serde_json::from_str(&row.requires_json)
+                .map_err(|e| anyhow::anyhow!("job {}: stored requirements: {e}", row.id))?;
             job.state = row.state;
             job.error = row.error;
             job.started_ms = row.started_ms;
@@ -301,18 +358,27 @@ impl Ledger {
             jobs.insert(row.id, job);
         }
         // Workers known before a restart get the same grace as their leases to come back.
-        let workers = db::load_workers(&db)?
-            .into_iter()
-            .map(|(id, name, threads)| {
-                let worker = Worker {
-                    name,
-                    threads,
-                    seen_until: now + grace,
-                    polls: 0,
-                };
-                (id, worker)
-            })
-            .collect();
+        let wall = now_ms();
+        let mut workers = HashMap::new();
+        for row in db::load_workers(&db)? {
+            let labels = serde_json::from_str(&row.labels_json)
+                .map_err(|e| anyhow::anyhow!("worker {}: stored labels: {e}", row.id))?;
+            let worker = Worker {
+                name: row.name,
+                threads: row.threads,
+                version: row.version,
+                labels,
+                draining: row.draining,
+                // Not known across a restart; the restart is when it was last accounted for.
+                last_seen_ms: wall.max(row.registered_ms),
+                tiles_done: row.tiles_done,
+                failures: row.failures,
+                recent_tiles: VecDeque::new(),
+                seen_until: now + grace,
+                polls: 0,
+            };
+            workers.insert(row.id, worker);
+        }
         Ok(Ledger {
             db,
             jobs,
@@ -368,12 +434,14 @@ impl Ledger {
             error: None,
             idempotency_key: new.idempotency_key.clone(),
             request_hash: new.request_hash.clone(),
+            requires_json: serde_json::to_string(&new.requires).map_err(anyhow::Error::from)?,
             created_ms: now,
             started_ms: None,
             finished_ms: None,
         };
         let id = db::insert_job(&self.db, &row)?;
-        let job = Job::new(id, Arc::new(new.spec), new.priority, now);
+        let mut job = Job::new(id, Arc::new(new.spec), new.priority, now);
+        job.requires = new.requires;
         self.jobs.insert(id, job);
         let info = self.info(id)?;
         if let Some(key) = new.idempotency_key {
@@ -390,16 +458,137 @@ impl Ledger {
 
     /// A job as clients see it now.
     pub fn info(&self, id: u64) -> Result<JobInfo, Error> {
-        Ok(self
-            .job(id)?
-            .info(now_ms(), self.workers_live(Instant::now())))
+        let now = Instant::now();
+        let job = self.job(id)?;
+        Ok(job.info(
+            now_ms(),
+            self.workers_live(now),
+            self.workers_eligible(&job.requires, now),
+        ))
     }
 
     /// All jobs, oldest first.
     pub fn list(&self) -> Vec<JobInfo> {
-        let now = now_ms();
-        let live = self.workers_live(Instant::now());
-        self.jobs.values().map(|j| j.info(now, live)).collect()
+        let now = Instant::now();
+        let wall = now_ms();
+        let live = self.workers_live(now);
+        self.jobs
+            .values()
+            .map(|j| j.info(wall, live, self.workers_eligible(&j.requires, now)))
+            .collect()
+    }
+
+    /// How many workers may take tiles of a job requiring `requires` at `now`.
+    pub fn workers_eligible(&self, requires: &BTreeMap<String, String>, now: Instant) -> u32 {
+        let n = self
+            .workers
+            .values()
+            .filter(|w| w.eligible(requires, now))
+            .count();
+        u32::try_from(n).unwrap_or(u32::MAX)
+    }
+
+    /// Every connected worker and the lost ones heard from within [`LOST_WORKERS_LISTED_S`],
+    /// by id.
+    pub fn worker_list(&self) -> Vec<WorkerInfo> {
+        let now = Instant::now();
+        let wall = now_ms();
+        // The lowest leased (job, tile) of each worker.
+        let mut holding: HashMap<u64, (u64, u32)> = HashMap::new();
+        for job in self.jobs.values() {
+            for &index in &job.leased {
+                if let Some(w) = job.tiles[index as usize].worker {
+                    holding.entry(w).or_insert((job.id, index));
+                }
+            }
+        }
+        let mut list: Vec<WorkerInfo> = self
+            .workers
+            .iter()
+            .filter(|(_, w)| {
+                w.is_live(now) || wall - w.last_seen_ms <= LOST_WORKERS_LISTED_S as i64 * 1000
+            })
+            .map(|(&id, w)| {
+                let lease = holding.get(&id).copied();
+                let state = if !w.is_live(now) {
+                    WorkerState::Lost
+                } else if w.draining {
+                    WorkerState::Draining
+                } else if lease.is_some() {
+                    WorkerState::Rendering
+                } else {
+                    WorkerState::Idle
+                };
+                WorkerInfo {
+                    id,
+                    name: w.name.clone(),
+                    version: w.version.clone(),
+                    threads: w.threads,
+                    labels: w.labels.clone(),
+                    state,
+                    job: lease.map(|l| l.0),
+                    tile: lease.map(|l| l.1),
+                    last_seen_ms: w.last_seen_ms,
+                    tiles_done: w.tiles_done,
+                    failures: w.failures,
+                    tiles_per_min: w.tiles_per_min(wall),
+                }
+            })
+            .collect();
+        list.sort_by_key(|w| w.id);
+        list
+    }
+
+    /// Tells the connected workers named `name_or_id` (an id, or a name) to drain: they get no
+    /// more leases and exit after the tile in hand. Returns them as listed after the change.
+    pub fn drain(&mut self, name_or_id: &str) -> Result<Vec<WorkerInfo>, Error> {
+        let now = Instant::now();
+        let by_id = name_or_id
+            .parse::<u64>()
+            .ok()
+            .filter(|id| self.workers.contains_key(id));
+        let matching: Vec<u64> = match by_id {
+            Some(id) => vec![id],
+            None => self
+                .workers
+                .iter()
+                .filter(|(_, w)| w.name == name_or_id)
+                .map(|(&id, _)| id)
+                .collect(),
+        };
+        if matching.is_empty() {
+            return Err(Error::NotFound(format!(
+                "no worker has the id or name {name_or_id:?}"
+            )));
+        }
+        let live: Vec<u64> = matching
+            .into_iter()
+            .filter(|id| self.workers[id].is_live(now))
+            .collect();
+        if live.is_empty() {
+            return Err(Error::Conflict(format!(
+                "worker {name_or_id:?} is lost (not heard from within the lease TTL); \
+                 there is nothing to drain"
+            )));
+        }
+        let tx = self.db.transaction()?;
+        for &id in &live {
+            db::set_worker_draining(&tx, id)?;
+        }
+        tx.commit()?;
+        for id in &live {
+            if let Some(w) = self.workers.get_mut(id)
+                && !w.draining
+            {
+                w.draining = true;
+                tracing::info!(worker = id, name = %w.name, "worker draining");
+            }
+        }
+        Ok(self
+            .worker_list()
+            .into_iter()
+            .filter(|w| live.contains(&w.id))
+            .collect())
     }
 
     /// How many workers are connected at `now`.
@@ -469,17 +658,39 @@ impl Ledger {
         Ok(())
     }
 
-    /// Registers a worker.
-    pub fn register_worker(&mut self, name: &str, threads: u32) -> Result<u64, Error> {
-        let id = db::insert_worker(&self.db, name, threads, now_ms())?;
+    /// Registers a worker (its labels already checked).
+    pub fn register_worker(
+        &mut self,
+        name: &str,
+        threads: u32,
+        version: &str,
+        labels: BTreeMap<String, String>,
+    ) -> Result<u64, Error> {
+        let now = now_ms();
+        let labels_json = serde_json::to_string(&labels).map_err(anyhow::Error::from)?;
+        let id = db::insert_worker(&self.db, name, threads, version, &labels_json, now)?;
+        tracing::info!(
+            worker = id,
+            name,
+            threads,
+            version,
+            labels = %format_labels(&labels),
+            "worker registered"
+        );
         let worker = Worker {
             name: name.to_string(),
             threads,
+            version: version.to_string(),
+            labels,
+            draining: false,
+            last_seen_ms: now,
+            tiles_done: 0,
+            failures: 0,
+            recent_tiles: VecDeque::new(),
             seen_until: Instant::now() + self.lease_ttl,
             polls: 0,
         };
         self.workers.insert(id, worker);
-        tracing::info!(worker = id, name, threads, "worker registered");
         Ok(id)
     }
 

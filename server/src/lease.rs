@@ -19,6 +19,10 @@
 //!   connected worker failed it or is kept off the job). With no worker connected at all, jobs
 //!   wait: there is nobody to judge by.
 //! - A worker is connected while it is in a lease poll, and for one lease TTL after any request.
+//! - A job with `requires` is leased only to workers whose labels include every requirement;
+//!   a draining worker is leased nothing (410) and its heartbeats answer `drain`. Only workers
+//!   that may take a job's tiles count when judging whether it is stuck: a job no connected
+//!   worker is eligible for waits (its `workers_eligible` is 0), like a job with no worker.
 
 use spindle_common::protocol::{
     Heartbeat, HeartbeatAck, JobState, Lease, TileFailure, TileOutcome, TileUpload,
@@ -58,6 +62,7 @@ impl Ledger {
         let ttl = self.lease_ttl;
         if let Some(w) = self.workers.get_mut(&worker) {
             w.seen_until = w.seen_until.max(now + ttl);
+            w.last_seen_ms = now_ms();
         }
     }
 
@@ -83,21 +88,21 @@ impl Ledger {
     /// connected worker has failed or is kept off, or every connected worker kept off the job.
     /// With no worker connected, nothing is decided.
     pub fn fail_stuck_jobs(&mut self, now: Instant) -> Result<(), Error> {
-        let mut live: Vec<u64> = self
-            .workers
-            .iter()
-            .filter(|(_, w)| w.is_live(now))
-            .map(|(&id, _)| id)
-            .collect();
-        if live.is_empty() {
-            return Ok(());
-        }
-        live.sort_unstable();
         let mut stuck = Vec::new();
         for job in self.jobs.values() {
             if !job.is_active() || job.failed_by.is_empty() {
                 continue;
             }
+            let mut live: Vec<u64> = self
+                .workers
+                .iter()
+                .filter(|(_, w)| w.eligible(&job.requires, now))
+                .map(|(&id, _)| id)
+                .collect();
+            if live.is_empty() {
+                continue;
+            }
+            live.sort_unstable();
             let kept_off = |w: &u64| {
                 job.strikes
                     .get(w)
@@ -195,6 +200,11 @@ impl Ledger {
     pub fn try_lease(&mut self, worker: u64, now: Instant) -> Result<Option<Lease>, Error> {
         self.check_worker(worker)?;
         self.seen(worker, now);
+        if self.workers[&worker].draining {
+            return Err(Error::Gone(format!(
+                "worker {worker} is draining: take no more tiles and exit"
+            )));
+        }
         self.expire_leases(now);
         self.fail_stuck_jobs(now)?;
         let mut order: Vec<(i32, u64)> = self
@@ -206,6 +216,9 @@ impl Ledger {
         order.sort_by_key(|&(priority, id)| (std::cmp::Reverse(priority), id));
         for (_, id) in order {
             let job = &self.jobs[&id];
+            if !self.workers[&worker].has_labels(&job.requires) {
+                continue;
+            }
             if job
                 .strikes
                 .get(&worker)
@@ -265,6 +278,10 @@ impl Ledger {
     ) -> Result<HeartbeatAck, Error> {
         let ttl = self.lease_ttl;
         self.seen(hb.worker_id, now);
+        let drain = self
+            .workers
+            .get(&hb.worker_id)
+            .is_some_and(|w| w.draining);
         let job = self.job_mut(id)?;
         check_index(job, index)?;
         if !job.is_active() {
@@ -284,6 +301,7 @@ impl Ledger {
                 job.leased.insert(index);
                 Ok(HeartbeatAck {
                     ttl_ms: ttl.as_millis() as u64,
+                    drain,
                 })
             }
             TileStatus::Done { .. } => Err(Error::Conflict(format!(
@@ -383,6 +401,9 @@ impl Ledger {
             &upload.pixels.stats,
         )?;
         tx.commit()?;
+        if let Some(w) = self.workers.get_mut(&upload.worker_id) {
+            w.tile_accepted(now_ms());
+        }
         let job = self.job_mut(id)?;
         job.tiles[index as usize].status = TileStatus::Done {
             hash: upload.hash.clone(),
@@ -469,10 +490,13 @@ impl Ledger {
         }
         tx.commit()?;
 
-        let name = self
-            .workers
-            .get(&failure.worker_id)
-            .map_or_else(String::new, |w| w.name.clone());
+        let name = match self.workers.get_mut(&failure.worker_id) {
+            Some(w) => {
+                w.failures += 1;
+                w.name.clone()
+            }
+            None => String::new(),
+        };
         let job = self.job_mut(id)?;
         let tile = &mut job.tiles[index as usize];
         tile.status = TileStatus::Pending;

@@ -1,13 +1,15 @@
 //! The `spindle` command end to end: `render` through its embedded local farm and in process,
-//! and `submit` / `status` / `fetch` / `cancel` against a real coordinator.
+//! and `submit` / `status` / `fetch` / `cancel` / `workers` against a real coordinator.
 
 use std::path::Path;
 use std::process::{Command, Output};
 use std::time::Duration;
 
 use spindle_common::image::read_exr;
-use spindle_common::protocol::{JobInfo, JobState};
-use spindle_tests::{Farm, assert_bit_identical, binary, reference_image, test_scene};
+use spindle_common::protocol::{JobInfo, JobState, WorkerList, WorkerState};
+use spindle_tests::{
+    Farm, accepted_tiles, assert_bit_identical, binary, reference_image, test_scene,
+};
 
 const TEST_TIMEOUT: Duration = Duration::from_secs(150);
 
@@ -264,4 +266,84 @@ async fn submit_wait_status_fetch_and_cancel_against_a_coordinator() {
     })
     .await
     .expect("the test finished in time");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_job_requiring_a_label_is_rendered_only_by_the_labelled_worker() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write_scene(dir.path(), 32, 16, 1);
+    let s = scene.to_str().unwrap();
+    let mut farm = Farm::start(5.0).await.unwrap();
+    farm.add_worker("day", 1).unwrap();
+    farm.add_worker_with("night", 1, &["--label", "pool=night"])
+        .unwrap();
+    farm.wait_registered(0).await.unwrap();
+    farm.wait_registered(1).await.unwrap();
+
+    let out = spindle(&["workers", "--json"], Some(&farm)).await;
+    assert!(out.status.success(), "{}", text(&out));
+    let list: WorkerList = serde_json::from_slice(&out.stdout).unwrap();
+    let night = list.workers.iter().find(|w| w.name == "night").unwrap();
+    assert_eq!(night.labels.get("pool").map(String::as_str), Some("night"));
+    assert!(list.workers.iter().all(|w| w.state != WorkerState::Lost));
+
+    let out = spindle(
+        &["submit", s, "--require", "pool=night", "--tile-size", "8", "--wait"],
+        Some(&farm),
+    )
+    .await;
+    assert!(out.status.success(), "{}\n{}", text(&out), farm.logs());
+    let (day, night) = (
+        accepted_tiles(&farm.workers[0].log()),
+        accepted_tiles(&farm.workers[1].log()),
+    );
+    assert_eq!((day, night), (0, 8), "{}", farm.logs());
+
+    let out = spindle(&["submit", s, "--require", "pool"], Some(&farm)).await;
+    assert!(!out.status.success());
+    assert!(text(&out).contains("expected key=value"), "{}", text(&out));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_drained_worker_finishes_its_tile_takes_no_more_and_exits_0() {
+    let dir = tempfile::tempdir().unwrap();
+    // 64 tiles: far more than the worker renders before the drain reaches it.
+    let scene = write_scene(dir.path(), 64, 64, 16);
+    let s = scene.to_str().unwrap();
+    let mut farm = Farm::start(5.0).await.unwrap();
+    farm.add_worker("leaving", 1).unwrap();
+    farm.wait_registered(0).await.unwrap();
+    let out = spindle(&["submit", s, "--tile-size", "8"], Some(&farm)).await;
+    assert!(out.status.success(), "{}", text(&out));
+    let id: u64 = String::from_utf8_lossy(&out.stdout).trim().parse().unwrap();
+
+    // Drain it while it renders.
+    let deadline = std::time::Instant::now() + Duration::from_secs(60);
+    loop {
+        let out = spindle(&["workers", "--json"], Some(&farm)).await;
+        let list: WorkerList = serde_json::from_slice(&out.stdout).unwrap();
+        if list.workers[0].state == WorkerState::Rendering {
+            break;
+        }
+        assert!(std::time::Instant::now() < deadline, "{}", farm.logs());
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    let out = spindle(&["workers", "drain", "leaving"], Some(&farm)).await;
+    assert!(out.status.success(), "{}", text(&out));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("draining"), "{}", text(&out));
+
+    let status = farm.workers[0]
+        .wait_exit(Duration::from_secs(60))
+        .await
+        .unwrap();
+    assert!(status.success(), "{status}\n{}", farm.logs());
+    let log = farm.workers[0].log();
+    assert!(log.contains("drained"), "{log}");
+    // The tile in hand was delivered and counted; nothing was taken after it.
+    let job = farm.job(id).await.unwrap();
+    let delivered = accepted_tiles(&log) as u32;
+    assert!(delivered >= 1, "{log}");
+    assert_eq!(job.tiles_done, delivered, "{}", farm.logs());
+    assert!(job.tiles_done < job.tiles_total, "{}", farm.logs());
+    assert_eq!(job.recent_errors, vec![], "{}", farm.logs());
 }

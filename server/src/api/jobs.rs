@@ -5,7 +5,7 @@ use axum::extract::State;
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use spindle_common::protocol::{
-    ApiError, IDEMPOTENCY_KEY_HEADER, JobInfo, JobList, JobState, SubmitJob,
+    ApiError, IDEMPOTENCY_KEY_HEADER, JobInfo, JobList, JobState, SubmitJob, check_labels,
 };
 use utoipa_axum::routes;
 
@@ -44,6 +44,7 @@ async fn submit_job(
 ) -> Result<(StatusCode, Json<JobInfo>), Error> {
     let key = idempotency_key(&headers)?;
     let submit: SubmitJob = parse_json(&body)?;
+    check_labels("requires", &submit.requires).map_err(Error::BadRequest)?;
     let limits = &state.config().limits;
     admission::admit(&submit, limits, state.assets()).await?;
     let new = NewJob::new(submit, key)?;
