@@ -32,21 +32,7 @@ pub async fn run(api: &Api, args: &StatusArgs) -> Result<()> {
             } else if list.jobs.is_empty() {
                 println!("no jobs");
             } else {
-                println!(
-                    "{:>6}  {:<10} {:>5}  {:>13}  {:>9}  {:>8}",
-                    "job", "state", "prio", "tiles", "size", "elapsed"
-                );
-                for j in &list.jobs {
-                    println!(
-                        "{:>6}  {:<10} {:>5}  {:>13}  {:>9}  {:>7.1}s",
-                        j.id,
-                        state_label(j),
-                        j.priority,
-                        format!("{}/{}", j.tiles_done, j.tiles_total),
-                        format!("{}x{}", j.width, j.height),
-                        j.elapsed_s
-                    );
-                }
+                print!("{}", crate::jobs::table(&list.jobs));
             }
         }
     }
@@ -54,7 +40,7 @@ pub async fn run(api: &Api, args: &StatusArgs) -> Result<()> {
 }
 
 /// The job's state, with why nothing moves when no worker is connected or none may take it.
-fn state_label(j: &JobInfo) -> String {
+pub fn state_label(j: &JobInfo) -> String {
     let state = j.state.as_str();
     if j.state.is_finished() {
         state.to_string()
@@ -75,8 +61,9 @@ fn state_label(j: &JobInfo) -> String {
 /// A few lines about one job.
 fn describe(j: &JobInfo) -> String {
     let mut s = format!(
-        "job {}: {}\n  image     {}x{} in tiles of {} px, priority {}\n  tiles     {}/{} done\n  elapsed   {:.1} s\n",
+        "job {} ({}): {}\n  image     {}x{} in tiles of {} px, priority {}\n  tiles     {}/{} done\n  elapsed   {:.1} s\n",
         j.id,
+        j.name,
         state_label(j),
         j.width,
         j.height,
@@ -122,6 +109,9 @@ mod tests {
     fn job(state: JobState, workers_live: u32) -> JobInfo {
         JobInfo {
             id: 3,
+            name: "box".into(),
+            submitter: None,
+            submitted_at_ms: 0,
             state,
             priority: 0,
             width: 8,
@@ -144,19 +134,19 @@ mod tests {
     fn a_waiting_job_says_when_no_worker_is_connected() {
         let text = describe(&job(JobState::Queued, 0));
         assert!(
-            text.starts_with("job 3: queued — no workers connected\n"),
+            text.starts_with("job 3 (box): queued — no workers connected\n"),
             "{text}"
         );
         let text = describe(&job(JobState::Queued, 2));
-        assert!(text.starts_with("job 3: queued\n"), "{text}");
+        assert!(text.starts_with("job 3 (box): queued\n"), "{text}");
         let text = describe(&job(JobState::Done, 0));
-        assert!(text.starts_with("job 3: done\n"), "{text}");
+        assert!(text.starts_with("job 3 (box): done\n"), "{text}");
         let mut picky = job(JobState::Queued, 2);
         picky.requires.insert("pool".into(), "night".into());
         picky.workers_eligible = 0;
         let text = describe(&picky);
         assert!(
-            text.starts_with("job 3: queued — no live worker has labels pool=night\n"),
+            text.starts_with("job 3 (box): queued — no live worker has labels pool=night\n"),
             "{text}"
         );
     }

@@ -39,6 +39,15 @@ pub struct SubmitArgs {
     /// repeatable: a worker needs every one.
     #[arg(long = "require", value_name = "KEY=VALUE", value_parser = parse_label)]
     pub requires: Vec<(String, String)>,
+    /// The job's name (default: the scene file's name without `.json`).
+    #[arg(long)]
+    pub name: Option<String>,
+    /// Who submits it, a label shown in `spindle jobs` (default: $USER).
+    #[arg(long)]
+    pub submitter: Option<String>,
+    /// With --wait: download the final EXR here when the job is done.
+    #[arg(short, long, requires = "wait")]
+    pub output: Option<std::path::PathBuf>,
 }
 
 /// Runs `spindle submit`: prints the job id on stdout; with `--wait`, fails unless the job ends
@@ -48,12 +57,25 @@ pub async fn run(api: &Api, args: &SubmitArgs) -> Result<()> {
         tile_size: args.tile_size,
         priority: args.priority,
         requires: args.requires.iter().cloned().collect(),
+        name: args.name.clone().or_else(|| {
+            args.scene
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+        }),
+        submitter: args
+            .submitter
+            .clone()
+            .or_else(|| std::env::var("USER").ok())
+            .filter(|s| !s.is_empty()),
     };
     let job = submit_scene_file(api, &args.scene, None, Check::Build, &options).await?;
     println!("{}", job.id);
     if args.wait {
         let end = wait_for(api, job.id, Wait::default()).await?;
         crate::progress::require_done(&end)?;
+        if let Some(output) = &args.output {
+            crate::fetch::download(api, job.id, Some(output), false).await?;
+        }
     }
     Ok(())
 }
@@ -73,6 +95,8 @@ pub struct JobOptions {
     pub tile_size: u32,
     pub priority: i32,
     pub requires: BTreeMap<String, String>,
+    pub name: Option<String>,
+    pub submitter: Option<String>,
 }
 
 /// Reads the scene file and its meshes, uploads the meshes the coordinator lacks, and submits
@@ -127,6 +151,8 @@ pub async fn submit_scene_file(
         tile_size: options.tile_size,
         priority: options.priority,
         requires: options.requires.clone(),
+        name: options.name.clone(),
+        submitter: options.submitter.clone(),
     };
     let key = random_hex();
     api.submit(&job, &key)

@@ -112,7 +112,15 @@ mod tests {
         let text = table(&[w]);
         let line = text.lines().nth(1).unwrap();
         for part in [
-            "7", "night-1", "rendering", "3/12", "pool=night", "01:02:03Z", "40", "2.5", "0.1.0",
+            "7",
+            "night-1",
+            "rendering",
+            "3/12",
+            "pool=night",
+            "01:02:03Z",
+            "40",
+            "2.5",
+            "0.1.0",
         ] {
             assert!(line.contains(part), "{part} missing in {line:?}");
         }

@@ -21,10 +21,14 @@
 //! | PUT | `/v1/assets/{hash}` | client | raw bytes (blake3 hex = `hash`, else 400) → [`AssetStored`] |
 //! | GET | `/v1/assets/{hash}` | worker | → raw bytes |
 //! | POST | `/v1/jobs` | client | [`SubmitJob`] (+ optional [`IDEMPOTENCY_KEY_HEADER`]) → 201 [`JobInfo`] (200 when the key was seen) |
-//! | GET | `/v1/jobs` | client | → [`JobList`] |
+//! | GET | `/v1/jobs` | client | `?state=&name=&limit=&cursor=` → [`JobList`] |
 //! | GET | `/v1/jobs/{id}` | client | → [`JobInfo`] |
 //! | POST | `/v1/jobs/{id}/cancel` | client | → [`JobInfo`] |
-//! | DELETE | `/v1/jobs/{id}` | client | → 204 |
+//! | DELETE | `/v1/jobs/{id}` | client | `?force=true` to delete an unfinished job → 204 |
+//! | PATCH | `/v1/jobs/{id}` | client | [`JobPatch`] → [`JobInfo`] |
+//! | POST | `/v1/jobs/{id}/pause` | client | → [`JobInfo`] |
+//! | POST | `/v1/jobs/{id}/resume` | client | → [`JobInfo`] |
+//! | POST | `/v1/jobs/{id}/requeue` | client | → [`JobInfo`] (a failed or cancelled job) |
 //! | GET | `/v1/jobs/{id}/image.exr` | client | → the final EXR; 409 until the job is done |
 //! | GET | `/v1/jobs/{id}/image.png` | client | → a PNG preview of the tiles received so far |
 //! | GET | `/v1/workers` | client | → [`WorkerList`] |
@@ -115,7 +119,42 @@ pub struct SubmitJob {
     /// labels include every one of these. Checked with [`check_labels`].
     #[serde(default)]
     pub requires: BTreeMap<String, String>,
+    /// A name for people (`spindle submit` sends the scene file's stem); `job-<id>` when absent.
+    /// 1 to [`MAX_NAME_LEN`] bytes, no control characters.
+    #[serde(default)]
+    pub name: Option<String>,
+    /// Who submitted the job (`spindle submit` sends `$USER`); a label, not an identity.
+    /// 1 to [`MAX_NAME_LEN`] bytes, no control characters.
+    #[serde(default)]
+    pub submitter: Option<String>,
 }
+
+/// Longest job name or submitter, in bytes.
+pub const MAX_NAME_LEN: usize = 128;
+
+/// Checks a job name or submitter: 1 to [`MAX_NAME_LEN`] bytes, no control characters.
+pub fn check_name(field: &str, value: &str) -> Result<(), String> {
+    if value.is_empty() || value.len() > MAX_NAME_LEN {
+        return Err(format!("{field}: must be 1 to {MAX_NAME_LEN} bytes"));
+    }
+    if value.chars().any(char::is_control) {
+        return Err(format!("{field}: must not contain control characters"));
+    }
+    Ok(())
+}
+
+/// A change to a submitted job (`PATCH /v1/jobs/{id}`).
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct JobPatch {
+    /// The new priority: higher runs first.
+    pub priority: Option<i32>,
+}
+
+/// Jobs a `GET /v1/jobs` page holds when the query does not say.
+pub const DEFAULT_JOB_PAGE: usize = 100;
+/// Most jobs one `GET /v1/jobs` page holds.
+pub const MAX_JOB_PAGE: usize = 1000;
 
 fn default_tile_size() -> u32 {
     DEFAULT_TILE_SIZE
@@ -137,6 +176,8 @@ pub enum JobState {
     Failed,
     /// Cancelled by a client.
     Cancelled,
+    /// Paused by a client: no new tiles are leased; tiles already leased finish and are kept.
+    Paused,
 }
 
 impl JobState {
@@ -156,6 +197,7 @@ impl JobState {
             JobState::Done => "done",
             JobState::Failed => "failed",
             JobState::Cancelled => "cancelled",
+            JobState::Paused => "paused",
         }
     }
 
@@ -167,6 +209,7 @@ impl JobState {
             JobState::Done,
             JobState::Failed,
             JobState::Cancelled,
+            JobState::Paused,
         ]
         .into_iter()
         .find(|s| s.as_str() == name)
@@ -178,6 +221,11 @@ impl JobState {
 #[serde(deny_unknown_fields)]
 pub struct JobInfo {
     pub id: u64,
+    /// The job's name ([`SubmitJob::name`], or `job-<id>`).
+    pub name: String,
+    pub submitter: Option<String>,
+    /// When the job was submitted, in ms since the Unix epoch.
+    pub submitted_at_ms: i64,
     pub state: JobState,
     pub priority: i32,
     pub width: u32,
@@ -224,11 +272,13 @@ pub struct TileError {
     pub message: String,
 }
 
-/// All jobs, oldest first.
+/// A page of jobs, oldest first.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct JobList {
     pub jobs: Vec<JobInfo>,
+    /// Pass as `cursor` for the next page; absent on the last page. Opaque.
+    pub next_cursor: Option<String>,
 }
 
 /// A worker introduces itself.
@@ -593,7 +643,7 @@ mod tests {
         assert!(bad.unwrap_err().to_string().contains("unknown field `spp`"));
         let lease: LeaseRequest = serde_json::from_str("{}").unwrap();
         assert_eq!(lease.wait_ms, None);
-        for s in ["queued", "running", "done", "failed", "cancelled"] {
+        for s in ["queued", "running", "done", "failed", "cancelled", "paused"] {
             let state = JobState::parse(s).unwrap();
             assert_eq!(serde_json::to_value(state).unwrap(), s);
         }
@@ -601,15 +651,31 @@ mod tests {
 
     #[test]
     fn labels_are_checked_naming_the_field() {
-        assert_eq!(parse_label("pool=night"), Ok(("pool".into(), "night".into())));
-        for bad in ["pool", "=night", "pool=", "po ol=x", "pool=a/b", &format!("k={}", "v".repeat(64))] {
+        assert_eq!(
+            parse_label("pool=night"),
+            Ok(("pool".into(), "night".into()))
+        );
+        let long = format!("k={}", "v".repeat(64));
+        for bad in [
+            "pool",
+            "=night",
+            "pool=",
+            "po ol=x",
+            "pool=a/b",
+            long.as_str(),
+        ] {
             assert!(parse_label(bad).is_err(), "{bad}");
         }
-        let mut labels: BTreeMap<String, String> =
-            (0..MAX_LABELS).map(|i| (format!("k{i}"), "v".into())).collect();
+        let mut labels: BTreeMap<String, String> = (0..MAX_LABELS)
+            .map(|i| (format!("k{i}"), "v".into()))
+            .collect();
         assert_eq!(check_labels("labels", &labels), Ok(()));
         labels.insert("one-more".into(), "v".into());
-        assert!(check_labels("labels", &labels).unwrap_err().starts_with("labels: 17 labels"));
+        assert!(
+            check_labels("labels", &labels)
+                .unwrap_err()
+                .starts_with("labels: 17 labels")
+        );
         let bad = BTreeMap::from([("pool".to_string(), "a b".to_string())]);
         let err = check_labels("requires", &bad).unwrap_err();
         assert!(err.starts_with("requires.pool: value \"a b\""), "{err}");

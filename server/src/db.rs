@@ -67,6 +67,11 @@ const MIGRATIONS: &[&str] = &[
     ALTER TABLE workers ADD COLUMN labels TEXT NOT NULL DEFAULT '{}';
     ALTER TABLE workers ADD COLUMN draining INTEGER NOT NULL DEFAULT 0;
 "#,
+    // Job names ('' for jobs stored before: shown as job-<id>) and submitters.
+    r#"
+    ALTER TABLE jobs ADD COLUMN name TEXT NOT NULL DEFAULT '';
+    ALTER TABLE jobs ADD COLUMN submitter TEXT;
+"#,
 ];
 
 /// Opens (creating if needed) the database at `path` and brings its schema up to date.
@@ -109,6 +114,9 @@ pub struct JobRow {
     pub request_hash: String,
     /// The worker labels the job needs, a JSON object.
     pub requires_json: String,
+    /// '' when the submission had none.
+    pub name: String,
+    pub submitter: Option<String>,
     pub created_ms: i64,
     pub started_ms: Option<i64>,
     pub finished_ms: Option<i64>,
@@ -145,8 +153,8 @@ pub struct FailureRow {
 pub fn insert_job(conn: &Connection, row: &JobRow) -> rusqlite::Result<u64> {
     conn.execute(
         "INSERT INTO jobs (spec, priority, state, error, idempotency_key, request_hash, created_ms,
-                           requires)
-         VALUES (?1, ?2, ?3, NULL, ?4, ?5, ?6, ?7)",
+                           requires, name, submitter)
+         VALUES (?1, ?2, ?3, NULL, ?4, ?5, ?6, ?7, ?8, ?9)",
         params![
             row.spec_json,
             row.priority,
@@ -154,7 +162,9 @@ pub fn insert_job(conn: &Connection, row: &JobRow) -> rusqlite::Result<u64> {
             row.idempotency_key,
             row.request_hash,
             row.created_ms,
-            row.requires_json
+            row.requires_json,
+            row.name,
+            row.submitter
         ],
     )?;
     Ok(conn.last_insert_rowid() as u64)
@@ -164,7 +174,7 @@ pub fn insert_job(conn: &Connection, row: &JobRow) -> rusqlite::Result<u64> {
 pub fn load_jobs(conn: &Connection) -> anyhow::Result<Vec<JobRow>> {
     let mut stmt = conn.prepare(
         "SELECT id, spec, priority, state, error, idempotency_key, request_hash, created_ms,
-                started_ms, finished_ms, requires FROM jobs ORDER BY id",
+                started_ms, finished_ms, requires, name, submitter FROM jobs ORDER BY id",
     )?;
     let rows = stmt.query_map([], |r| {
         Ok((
@@ -177,6 +187,8 @@ pub fn load_jobs(conn: &Connection) -> anyhow::Result<Vec<JobRow>> {
                 idempotency_key: r.get(5)?,
                 request_hash: r.get(6)?,
                 requires_json: r.get(10)?,
+                name: r.get(11)?,
+                submitter: r.get(12)?,
                 created_ms: r.get(7)?,
                 started_ms: r.get(8)?,
                 finished_ms: r.get(9)?,
@@ -342,6 +354,26 @@ pub fn set_job_state(
     Ok(())
 }
 
+/// Records a job's priority.
+pub fn set_job_priority(conn: &Connection, job: u64, priority: i32) -> rusqlite::Result<()> {
+    conn.execute(
+        "UPDATE jobs SET priority = ?2 WHERE id = ?1",
+        params![job as i64, priority],
+    )?;
+    Ok(())
+}
+
+/// Puts a job's unfinished tiles back in the queue and forgets its tile failures (a requeue);
+/// done tiles are kept.
+pub fn requeue_job(tx: &Transaction<'_>, job: u64) -> rusqlite::Result<()> {
+    tx.execute("DELETE FROM tile_failures WHERE job_id = ?1", [job as i64])?;
+    tx.execute(
+        "UPDATE tiles SET state = 'pending' WHERE job_id = ?1 AND state != 'done'",
+        [job as i64],
+    )?;
+    Ok(())
+}
+
 /// Records that `worker` holds tile `index` of `job` under `epoch`.
 pub fn record_lease(
     conn: &Connection,
@@ -449,6 +481,8 @@ mod tests {
             idempotency_key: Some("k".into()),
             request_hash: "h".into(),
             requires_json: "{}".into(),
+            name: "n".into(),
+            submitter: None,
             created_ms: 5,
             started_ms: None,
             finished_ms: None,

@@ -108,6 +108,9 @@ impl Worker {
 /// One job.
 pub struct Job {
     pub id: u64,
+    /// As submitted; '' for none (shown as `job-<id>`).
+    pub name: String,
+    pub submitter: Option<String>,
     pub spec: Arc<JobSpec>,
     pub priority: i32,
     /// Worker labels a worker must carry to be leased this job's tiles.
@@ -180,6 +183,8 @@ impl Job {
         ];
         Job {
             id,
+            name: String::new(),
+            submitter: None,
             spec,
             priority,
             requires: BTreeMap::new(),
@@ -201,9 +206,24 @@ impl Job {
         }
     }
 
-    /// Is the job still handing out tiles?
+    /// Is the job still taking tiles: heartbeats, uploads and failures of its leases (paused
+    /// jobs too)?
     pub fn is_active(&self) -> bool {
         !self.state.is_finished() && !self.assembling
+    }
+
+    /// Does the job hand out new leases (active and not paused)?
+    pub fn is_leasing(&self) -> bool {
+        self.is_active() && self.state != JobState::Paused
+    }
+
+    /// The name clients see.
+    pub fn display_name(&self) -> String {
+        if self.name.is_empty() {
+            format!("job-{}", self.id)
+        } else {
+            self.name.clone()
+        }
     }
 
     /// Is every tile in?
@@ -224,6 +244,9 @@ impl Job {
             .then(|| elapsed_s / self.tiles_done as f64 * (total - self.tiles_done) as f64);
         JobInfo {
             id: self.id,
+            name: self.display_name(),
+            submitter: self.submitter.clone(),
+            submitted_at_ms: self.created_ms,
             state: self.state,
             priority: self.priority,
             width: self.spec.scene.film.width,
@@ -260,11 +283,24 @@ impl Job {
     }
 }
 
+/// Which jobs `GET /v1/jobs` lists.
+#[derive(Debug, Clone)]
+pub struct JobFilter {
+    pub state: Option<JobState>,
+    /// Jobs whose name contains this.
+    pub name: Option<String>,
+    /// Jobs with a larger id only (the cursor).
+    pub after: Option<u64>,
+    pub limit: usize,
+}
+
 /// An admitted submission, ready to be stored.
 pub struct NewJob {
     pub spec: JobSpec,
     pub priority: i32,
     pub requires: BTreeMap<String, String>,
+    pub name: Option<String>,
+    pub submitter: Option<String>,
     pub idempotency_key: Option<String>,
     /// blake3 of the canonical request, to tell a retry from a different request with the
     /// same key.
@@ -284,6 +320,8 @@ impl NewJob {
             },
             priority: submit.priority,
             requires: submit.requires,
+            name: submit.name,
+            submitter: submit.submitter,
             idempotency_key,
         })
     }
@@ -304,6 +342,8 @@ impl Ledger {
             let spec: JobSpec = serde_json::from_str(&row.spec_json)
                 .map_err(|e| anyhow::anyhow!("job {}: stored spec: {e}", row.id))?;
             let mut job = Job::new(row.id, Arc::new(spec), row.priority, row.created_ms);
+            job.name = row.name;
+            job.submitter = row.submitter;
             job.requires = serde_json::from_str(&row.requires_json)
                 .map_err(|e| anyhow::anyhow!("job {}: stored requirements: {e}", row.id))?;
             job.state = row.state;
@@ -435,6 +475,8 @@ impl Ledger {
             idempotency_key: new.idempotency_key.clone(),
             request_hash: new.request_hash.clone(),
             requires_json: serde_json::to_string(&new.requires).map_err(anyhow::Error::from)?,
+            name: new.name.clone().unwrap_or_default(),
+            submitter: new.submitter.clone(),
             created_ms: now,
             started_ms: None,
             finished_ms: None,
@@ -442,6 +484,8 @@ impl Ledger {
         let id = db::insert_job(&self.db, &row)?;
         let mut job = Job::new(id, Arc::new(new.spec), new.priority, now);
         job.requires = new.requires;
+        job.name = new.name.unwrap_or_default();
+        job.submitter = new.submitter;
         self.jobs.insert(id, job);
         let info = self.info(id)?;
         if let Some(key) = new.idempotency_key {
@@ -467,15 +511,136 @@ impl Ledger {
         ))
     }
 
-    /// All jobs, oldest first.
-    pub fn list(&self) -> Vec<JobInfo> {
+    /// A page of the jobs `filter` selects, oldest first, and the cursor of the next page.
+    pub fn list(&self, filter: &JobFilter) -> (Vec<JobInfo>, Option<String>) {
         let now = Instant::now();
         let wall = now_ms();
         let live = self.workers_live(now);
-        self.jobs
-            .values()
+        let start = filter.after.map_or(0, |a| a.saturating_add(1));
+        let mut selected = self.jobs.range(start..).map(|(_, j)| j).filter(|j| {
+            filter.state.is_none_or(|s| j.state == s)
+                && filter
+                    .name
+                    .as_ref()
+                    .is_none_or(|n| j.display_name().contains(n.as_str()))
+        });
+        let page: Vec<JobInfo> = selected
+            .by_ref()
+            .take(filter.limit)
             .map(|j| j.info(wall, live, self.workers_eligible(&j.requires, now)))
-            .collect()
+            .collect();
+        let next = match (page.last(), selected.next()) {
+            (Some(last), Some(_)) => Some(last.id.to_string()),
+            _ => None,
+        };
+        (page, next)
+    }
+
+    /// Pauses a queued or running job: no new leases; leased tiles finish and are kept.
+    pub fn pause(&mut self, id: u64) -> Result<JobInfo, Error> {
+        let job = self.job(id)?;
+        match job.state {
+            JobState::Paused => return self.info(id),
+            JobState::Queued | JobState::Running => {}
+            finished => {
+                return Err(Error::Conflict(format!(
+                    "job {id} is {}; only a queued or running job can be paused",
+                    finished.as_str()
+                )));
+            }
+        }
+        let (started, error) = (job.started_ms, job.error.clone());
+        db::set_job_state(
+            &self.db,
+            id,
+            JobState::Paused,
+            error.as_deref(),
+            started,
+            None,
+        )?;
+        self.job_mut(id)?.state = JobState::Paused;
+        tracing::info!(job = id, "job paused");
+        self.info(id)
+    }
+
+    /// Resumes a paused job (running if it had started, else queued); a job that is not
+    /// paused and not finished is left as it is.
+    pub fn resume(&mut self, id: u64) -> Result<JobInfo, Error> {
+        let job = self.job(id)?;
+        match job.state {
+            JobState::Paused => {}
+            JobState::Queued | JobState::Running => return self.info(id),
+            finished => {
+                return Err(Error::Conflict(format!(
+                    "job {id} is {}; only a paused job can be resumed (requeue a failed or \
+                     cancelled one)",
+                    finished.as_str()
+                )));
+            }
+        }
+        let started = job.started_ms;
+        let state = if started.is_some() {
+            JobState::Running
+        } else {
+            JobState::Queued
+        };
+        db::set_job_state(&self.db, id, state, None, started, None)?;
+        self.job_mut(id)?.state = state;
+        tracing::info!(job = id, "job resumed");
+        self.info(id)
+    }
+
+    /// Puts a failed or cancelled job back in the queue: its unfinished tiles are pending again
+    /// and its failures forgotten (finished tiles are kept). A done job is a conflict.
+    pub fn requeue(&mut self, id: u64, max_active: usize) -> Result<JobInfo, Error> {
+        let job = self.job(id)?;
+        if !matches!(job.state, JobState::Failed | JobState::Cancelled) {
+            return Err(Error::Conflict(format!(
+                "job {id} is {}; only a failed or cancelled job can be requeued",
+                job.state.as_str()
+            )));
+        }
+        let active = self
+            .jobs
+            .values()
+            .filter(|j| !j.state.is_finished())
+            .count();
+        if active >= max_active {
+            return Err(Error::TooMany(format!(
+                "{active} jobs are queued or running, the limit is {max_active}"
+            )));
+        }
+        let tx = self.db.transaction()?;
+        db::requeue_job(&tx, id)?;
+        db::set_job_state(&tx, id, JobState::Queued, None, None, None)?;
+        tx.commit()?;
+        let job = self.job_mut(id)?;
+        job.state = JobState::Queued;
+        job.error = None;
+        job.started_ms = None;
+        job.finished_ms = None;
+        job.failed_by.clear();
+        job.strikes.clear();
+        job.failures = 0;
+        job.recent_errors.clear();
+        job.leased.clear();
+        for tile in &mut job.tiles {
+            if !matches!(tile.status, TileStatus::Done { .. }) {
+                tile.status = TileStatus::Pending;
+                tile.worker = None;
+            }
+        }
+        tracing::info!(job = id, "job requeued");
+        self.info(id)
+    }
+
+    /// Changes a job's priority.
+    pub fn set_priority(&mut self, id: u64, priority: i32) -> Result<JobInfo, Error> {
+        self.job(id)?;
+        db::set_job_priority(&self.db, id, priority)?;
+        self.job_mut(id)?.priority = priority;
+        tracing::info!(job = id, priority, "job priority changed");
+        self.info(id)
     }
 
     /// How many workers may take tiles of a job requiring `requires` at `now`.
@@ -608,7 +773,7 @@ impl Ledger {
                     job.state.as_str()
                 )));
             }
-            JobState::Queued | JobState::Running => {}
+            JobState::Queued | JobState::Running | JobState::Paused => {}
         }
         let now = now_ms();
         let started = job.started_ms;
@@ -621,9 +786,16 @@ impl Ledger {
         self.info(id)
     }
 
-    /// Forgets a job (its files are removed by the caller).
-    pub fn delete(&mut self, id: u64) -> Result<(), Error> {
-        self.job(id)?;
+    /// Forgets a job (its files are removed by the caller). An unfinished job is a conflict
+    /// unless `force`.
+    pub fn delete(&mut self, id: u64, force: bool) -> Result<(), Error> {
+        let job = self.job(id)?;
+        if !job.state.is_finished() && !force {
+            return Err(Error::Conflict(format!(
+                "job {id} is {}; cancel it first, or delete it with ?force=true",
+                job.state.as_str()
+            )));
+        }
         db::delete_job(&self.db, id)?;
         self.jobs.remove(&id);
         self.keys.retain(|_, (job, _)| *job != id);

@@ -90,7 +90,7 @@ impl Ledger {
     pub fn fail_stuck_jobs(&mut self, now: Instant) -> Result<(), Error> {
         let mut stuck = Vec::new();
         for job in self.jobs.values() {
-            if !job.is_active() || job.failed_by.is_empty() {
+            if !job.is_leasing() || job.failed_by.is_empty() {
                 continue;
             }
             let mut live: Vec<u64> = self
@@ -210,7 +210,7 @@ impl Ledger {
         let mut order: Vec<(i32, u64)> = self
             .jobs
             .values()
-            .filter(|j| j.is_active())
+            .filter(|j| j.is_leasing())
             .map(|j| (j.priority, j.id))
             .collect();
         order.sort_by_key(|&(priority, id)| (std::cmp::Reverse(priority), id));
@@ -278,10 +278,7 @@ impl Ledger {
     ) -> Result<HeartbeatAck, Error> {
         let ttl = self.lease_ttl;
         self.seen(hb.worker_id, now);
-        let drain = self
-            .workers
-            .get(&hb.worker_id)
-            .is_some_and(|w| w.draining);
+        let drain = self.workers.get(&hb.worker_id).is_some_and(|w| w.draining);
         let job = self.job_mut(id)?;
         check_index(job, index)?;
         if !job.is_active() {

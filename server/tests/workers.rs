@@ -35,18 +35,28 @@ async fn the_worker_list_shows_state_lease_counts_and_throughput() {
     assert_eq!(list.workers.len(), 1);
     let info = &list.workers[0];
     assert_eq!(
-        (info.id, info.name.as_str(), info.version.as_str(), info.threads),
+        (
+            info.id,
+            info.name.as_str(),
+            info.version.as_str(),
+            info.threads
+        ),
         (w, "night-1", "9.9.9", 3)
     );
     assert_eq!(info.labels.get("pool").map(String::as_str), Some("night"));
     assert_eq!(info.state, WorkerState::Idle);
     assert_eq!((info.job, info.tile, info.tiles_done), (None, None, 0));
 
-    let job = c.submit(json!({"scene": scene(16, 8), "tile_size": 8})).await; // 2 tiles
+    let job = c
+        .submit(json!({"scene": scene(16, 8), "tile_size": 8}))
+        .await; // 2 tiles
     let lease = c.lease(w).await.unwrap();
     let info = &workers(&c).await.workers[0];
     assert_eq!(info.state, WorkerState::Rendering);
-    assert_eq!((info.job, info.tile), (Some(job.id), Some(lease.tile_index)));
+    assert_eq!(
+        (info.job, info.tile),
+        (Some(job.id), Some(lease.tile_index))
+    );
 
     let (status, _) = c
         .upload(job.id, lease.tile_index, &upload_for(&lease, w))
@@ -115,7 +125,10 @@ async fn bad_labels_and_requirements_are_refused_naming_the_field() {
         )
         .await;
     assert_eq!(status, StatusCode::BAD_REQUEST, "{v}");
-    assert!(v["error"].as_str().unwrap().starts_with("labels: key"), "{v}");
+    assert!(
+        v["error"].as_str().unwrap().starts_with("labels: key"),
+        "{v}"
+    );
     let (status, v) = c
         .client(
             Method::POST,
@@ -125,14 +138,16 @@ async fn bad_labels_and_requirements_are_refused_naming_the_field() {
         .await;
     assert_eq!(status, StatusCode::BAD_REQUEST, "{v}");
     assert!(
-        v["error"].as_str().unwrap().starts_with("requires.pool: value"),
+        v["error"]
+            .as_str()
+            .unwrap()
+            .starts_with("requires.pool: value"),
         "{v}"
     );
 }
 
 #[tokio::test]
-async fn a_drained_worker_is_told_in_its_heartbeat_and_leased_nothing_more_even_after_a_restart()
-{
+async fn a_drained_worker_is_told_in_its_heartbeat_and_leased_nothing_more_even_after_a_restart() {
     let dir = tempfile::tempdir().unwrap();
     let (job, w, lease) = {
         let c = Coordinator::open(config(dir.path())).await;

@@ -305,6 +305,8 @@ impl Farm {
             tile_size,
             priority: 0,
             requires: BTreeMap::new(),
+            name: None,
+            submitter: None,
         };
         let resp = self
             .client(reqwest::Method::POST, "/v1/jobs")

@@ -29,7 +29,15 @@ fn write_scene(dir: &Path, width: u32, height: u32, spp: u32) -> std::path::Path
 /// Runs `spindle` with `args` (killed if it outlives the test's timeout) and the farm's
 /// address and client token in its environment.
 async fn spindle(args: &[&str], farm: Option<&Farm>) -> Output {
+    spindle_in(None, args, farm).await
+}
+
+/// [`spindle`] run in the directory `cwd`.
+async fn spindle_in(cwd: Option<&Path>, args: &[&str], farm: Option<&Farm>) -> Output {
     let mut cmd = Command::new(binary("spindle"));
+    if let Some(cwd) = cwd {
+        cmd.current_dir(cwd);
+    }
     cmd.args(args)
         .env_remove("SPINDLE_SERVER")
         .env_remove("SPINDLE_TOKEN");
@@ -288,7 +296,15 @@ async fn a_job_requiring_a_label_is_rendered_only_by_the_labelled_worker() {
     assert!(list.workers.iter().all(|w| w.state != WorkerState::Lost));
 
     let out = spindle(
-        &["submit", s, "--require", "pool=night", "--tile-size", "8", "--wait"],
+        &[
+            "submit",
+            s,
+            "--require",
+            "pool=night",
+            "--tile-size",
+            "8",
+            "--wait",
+        ],
         Some(&farm),
     )
     .await;
@@ -307,8 +323,9 @@ async fn a_job_requiring_a_label_is_rendered_only_by_the_labelled_worker() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_drained_worker_finishes_its_tile_takes_no_more_and_exits_0() {
     let dir = tempfile::tempdir().unwrap();
-    // 64 tiles: far more than the worker renders before the drain reaches it.
-    let scene = write_scene(dir.path(), 64, 64, 16);
+    // 64 tiles of 64 px × 2000 samples: far more than the worker renders before the drain
+    // reaches it.
+    let scene = write_scene(dir.path(), 64, 64, 2000);
     let s = scene.to_str().unwrap();
     let mut farm = Farm::start(5.0).await.unwrap();
     farm.add_worker("leaving", 1).unwrap();
@@ -330,7 +347,11 @@ async fn a_drained_worker_finishes_its_tile_takes_no_more_and_exits_0() {
     }
     let out = spindle(&["workers", "drain", "leaving"], Some(&farm)).await;
     assert!(out.status.success(), "{}", text(&out));
-    assert!(String::from_utf8_lossy(&out.stdout).contains("draining"), "{}", text(&out));
+    assert!(
+        String::from_utf8_lossy(&out.stdout).contains("draining"),
+        "{}",
+        text(&out)
+    );
 
     let status = farm.workers[0]
         .wait_exit(Duration::from_secs(60))
@@ -346,4 +367,91 @@ async fn a_drained_worker_finishes_its_tile_takes_no_more_and_exits_0() {
     assert_eq!(job.tiles_done, delivered, "{}", farm.logs());
     assert!(job.tiles_done < job.tiles_total, "{}", farm.logs());
     assert_eq!(job.recent_errors, vec![], "{}", farm.logs());
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn jobs_are_named_listed_paused_reprioritised_fetched_by_name_and_deleted() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write_scene(dir.path(), 16, 16, 1);
+    let s = scene.to_str().unwrap();
+    let farm = Farm::start(5.0).await.unwrap();
+    let id_of = |out: &Output| -> u64 {
+        String::from_utf8_lossy(&out.stdout)
+            .trim()
+            .parse()
+            .unwrap_or_else(|_| panic!("a job id: {}", text(out)))
+    };
+
+    // No worker: the job waits, and can be paused, resumed and reprioritised.
+    let out = spindle(&["submit", s, "--submitter", "ann"], Some(&farm)).await;
+    let first = id_of(&out);
+    let out = spindle(&["pause", &first.to_string()], Some(&farm)).await;
+    assert!(
+        text(&out).contains(&format!("job {first}: paused")),
+        "{}",
+        text(&out)
+    );
+    let out = spindle(&["jobs", "--state", "paused"], Some(&farm)).await;
+    let listing = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(
+        listing.contains("scene") && listing.contains("ann"),
+        "{}",
+        text(&out)
+    );
+    let out = spindle(&["resume", &first.to_string()], Some(&farm)).await;
+    assert!(text(&out).contains("queued"), "{}", text(&out));
+    let out = spindle(&["priority", &first.to_string(), "-3"], Some(&farm)).await;
+    assert!(text(&out).contains("priority -3"), "{}", text(&out));
+    let out = spindle(&["delete", &first.to_string()], Some(&farm)).await;
+    assert!(!out.status.success(), "an unfinished job needs --force");
+    assert!(text(&out).contains("force"), "{}", text(&out));
+
+    // With a worker: --wait -o downloads the image; fetch without -o writes <name>.exr here.
+    let mut farm = farm;
+    farm.add_worker("w", 2).unwrap();
+    let waited = dir.path().join("waited.exr");
+    let out = spindle(
+        &[
+            "submit",
+            s,
+            "--name",
+            "teapot",
+            "--tile-size",
+            "8",
+            "--wait",
+            "-o",
+            waited.to_str().unwrap(),
+        ],
+        Some(&farm),
+    )
+    .await;
+    assert!(out.status.success(), "{}\n{}", text(&out), farm.logs());
+    let id = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .next()
+        .unwrap()
+        .trim()
+        .parse::<u64>()
+        .unwrap();
+    let (desc, assets) = test_scene(16, 16, 1);
+    let reference = reference_image(&desc, &assets).unwrap();
+    assert_bit_identical(&read_exr(&waited).unwrap(), &reference);
+    let here = tempfile::tempdir().unwrap();
+    let out = spindle_in(Some(here.path()), &["fetch", &id.to_string()], Some(&farm)).await;
+    assert!(out.status.success(), "{}", text(&out));
+    assert_bit_identical(
+        &read_exr(here.path().join("teapot.exr")).unwrap(),
+        &reference,
+    );
+    let out = spindle(&["jobs", "--name", "teap", "--json"], Some(&farm)).await;
+    let listed: Vec<JobInfo> = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(listed.iter().map(|j| j.id).collect::<Vec<_>>(), vec![id]);
+
+    let out = spindle(&["delete", &id.to_string()], Some(&farm)).await;
+    assert!(out.status.success(), "{}", text(&out));
+    let out = spindle(&["delete", &first.to_string(), "--force"], Some(&farm)).await;
+    assert!(out.status.success(), "{}", text(&out));
+    let out = spindle(&["jobs", "--json"], Some(&farm)).await;
+    let listed: Vec<JobInfo> = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(listed.is_empty(), "{}", text(&out));
 }

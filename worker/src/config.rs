@@ -108,7 +108,10 @@ impl Config {
         }
         check_labels("label", &map).map_err(|problem| ConfigError {
             field: "label",
-            problem: problem.trim_start_matches("label").trim_start_matches(": ").into(),
+            problem: problem
+                .trim_start_matches("label")
+                .trim_start_matches(": ")
+                .into(),
         })?;
         self.labels = map;
         Ok(self)
@@ -192,9 +195,14 @@ mod tests {
         assert_eq!(err.field, "name");
         let c = Config::new("http://h:1", None, None, None).unwrap();
         let pair = |k: &str| (k.to_string(), "x".to_string());
-        let err = c.clone().with_labels(vec![pair("a"), pair("a")]).unwrap_err();
+        let err = c
+            .clone()
+            .with_labels(vec![pair("a"), pair("a")])
+            .unwrap_err();
         assert_eq!(err.field, "label");
-        let err = c.clone().with_labels((0..17).map(|i| pair(&format!("k{i}"))).collect());
+        let err = c
+            .clone()
+            .with_labels((0..17).map(|i| pair(&format!("k{i}"))).collect());
         assert_eq!(err.unwrap_err().field, "label");
         let ok = c.with_labels(vec![pair("pool")]).unwrap();
         assert_eq!(ok.labels.get("pool").map(String::as_str), Some("x"));

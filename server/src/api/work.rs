@@ -53,7 +53,9 @@ async fn register_worker(
         return Err(Error::BadRequest("threads: must be at least 1".into()));
     }
     if request.version.len() > 64 {
-        return Err(Error::BadRequest("version: must be at most 64 bytes".into()));
+        return Err(Error::BadRequest(
+            "version: must be at most 64 bytes".into(),
+        ));
     }
     check_labels("labels", &request.labels).map_err(Error::BadRequest)?;
     let worker_id = state.ledger().register_worker(
