@@ -31,6 +31,7 @@
 //! | POST | `/v1/jobs/{id}/requeue` | client | → [`JobInfo`] (a failed or cancelled job) |
 //! | GET | `/v1/jobs/{id}/image.exr` | client | → the final EXR; 409 until the job is done |
 //! | GET | `/v1/jobs/{id}/image.png` | client | → a PNG preview of the tiles received so far |
+//! | GET | `/v1/events` | client | Server-Sent Events, each a [`FarmEvent`]; `Last-Event-ID` resumes |
 //! | GET | `/v1/workers` | client | → [`WorkerList`] |
 //! | POST | `/v1/workers/{id}/drain` | client | (id or name) → [`WorkerList`] of the workers told to drain |
 //! | POST | `/v1/workers` | worker | [`RegisterWorker`] → [`WorkerRegistered`] |
@@ -415,6 +416,69 @@ pub struct WorkerList {
     pub workers: Vec<WorkerInfo>,
 }
 
+/// One event of `GET /v1/events` (Server-Sent Events): the SSE `id:` is `id`, the SSE
+/// `event:` is `type`, and `data:` is this object as JSON.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct FarmEvent {
+    /// Grows by one with every event.
+    pub id: u64,
+    /// When it happened, in ms since the Unix epoch.
+    pub at_ms: i64,
+    #[serde(flatten)]
+    pub kind: EventKind,
+}
+
+/// What a [`FarmEvent`] says.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum EventKind {
+    /// A job entered `state` (submitted: `queued`).
+    JobState {
+        job: u64,
+        state: JobState,
+        error: Option<String>,
+    },
+    /// A tile was accepted; `seconds` from its lease to its upload (absent when the lease was
+    /// granted before a coordinator restart).
+    TileDone {
+        job: u64,
+        tile: u32,
+        worker_id: u64,
+        worker: String,
+        seconds: Option<f64>,
+    },
+    WorkerJoined {
+        worker_id: u64,
+        worker: String,
+    },
+    WorkerDraining {
+        worker_id: u64,
+        worker: String,
+    },
+    /// Not heard from for longer than the lease TTL.
+    WorkerLost {
+        worker_id: u64,
+        worker: String,
+    },
+    /// The `Last-Event-ID` a client reconnected with is older than the events kept: refetch
+    /// the state (`GET /v1/jobs`, `GET /v1/workers`), then follow on from this event's id.
+    Reset,
+}
+
+impl EventKind {
+    /// The SSE event name (the `type` field).
+    pub fn name(&self) -> &'static str {
+        match self {
+            EventKind::JobState { .. } => "job_state",
+            EventKind::TileDone { .. } => "tile_done",
+            EventKind::WorkerJoined { .. } => "worker_joined",
+            EventKind::WorkerDraining { .. } => "worker_draining",
+            EventKind::WorkerLost { .. } => "worker_lost",
+            EventKind::Reset => "reset",
+        }
+    }
+}
+
 /// How long a lost worker stays in [`WorkerList`], in seconds.
 pub const LOST_WORKERS_LISTED_S: u64 = 3600;
 
@@ -647,6 +711,27 @@ mod tests {
             let state = JobState::parse(s).unwrap();
             assert_eq!(serde_json::to_value(state).unwrap(), s);
         }
+    }
+
+    #[test]
+    fn events_are_flat_json_with_their_type() {
+        let e = FarmEvent {
+            id: 7,
+            at_ms: 1,
+            kind: EventKind::JobState {
+                job: 3,
+                state: JobState::Running,
+                error: None,
+            },
+        };
+        let v = serde_json::to_value(&e).unwrap();
+        assert_eq!(
+            v,
+            serde_json::json!({"id": 7, "at_ms": 1, "type": "job_state", "job": 3,
+                               "state": "running", "error": null})
+        );
+        assert_eq!(e.kind.name(), v["type"]);
+        assert_eq!(serde_json::from_value::<FarmEvent>(v).unwrap(), e);
     }
 
     #[test]

@@ -12,7 +12,7 @@ use std::time::Duration;
 
 use rusqlite::Connection;
 use spindle_common::protocol::{
-    JobInfo, JobSpec, JobState, LOST_WORKERS_LISTED_S, RECENT_TILE_ERRORS, SubmitJob,
+    EventKind, JobInfo, JobSpec, JobState, LOST_WORKERS_LISTED_S, RECENT_TILE_ERRORS, SubmitJob,
     THROUGHPUT_WINDOW_S, TileError, WorkerInfo, WorkerState, format_labels,
 };
 use spindle_common::stats::RenderStats;
@@ -21,6 +21,7 @@ use tokio::time::Instant;
 
 use crate::db::{self, JobRow, TileRowState};
 use crate::error::Error;
+use crate::events::Events;
 
 /// Worker failures on one tile that fail its job.
 pub const TILE_FAILURE_LIMIT: usize = 3;
@@ -38,6 +39,8 @@ pub struct Ledger {
     pub(crate) lease_ttl: Duration,
     /// Idempotency key → (job, hash of the request that created it).
     keys: HashMap<String, (u64, String)>,
+    /// Where every job state change, finished tile and worker change is announced.
+    pub(crate) events: Arc<Events>,
 }
 
 /// One registered worker, as far as the coordinator can tell.
@@ -61,6 +64,8 @@ pub struct Worker {
     pub seen_until: Instant,
     /// Lease long polls of this worker in progress.
     pub polls: u32,
+    /// Its loss was announced (reset when it is heard from again).
+    pub announced_lost: bool,
 }
 
 /// Bound on [`Worker::recent_tiles`]: beyond it the throughput saturates rather than memory
@@ -148,6 +153,8 @@ pub struct Tile {
     /// The worker of the latest lease, while that lease may still report.
     pub worker: Option<u64>,
     pub status: TileStatus,
+    /// When the latest lease was granted by this process.
+    pub leased_at: Option<Instant>,
 }
 
 /// Where a tile is.
@@ -178,6 +185,7 @@ impl Job {
                 epoch: 0,
                 worker: None,
                 status: TileStatus::Pending,
+                leased_at: None,
             };
             rects.len()
         ];
@@ -416,6 +424,7 @@ impl Ledger {
                 recent_tiles: VecDeque::new(),
                 seen_until: now + grace,
                 polls: 0,
+                announced_lost: false,
             };
             workers.insert(row.id, worker);
         }
@@ -425,6 +434,7 @@ impl Ledger {
             workers,
             lease_ttl,
             keys,
+            events: Arc::new(Events::default()),
         })
     }
 
@@ -491,6 +501,7 @@ impl Ledger {
         if let Some(key) = new.idempotency_key {
             self.keys.insert(key, (id, new.request_hash));
         }
+        self.job_changed(id);
         tracing::info!(
             job = id,
             tiles = info.tiles_total,
@@ -509,6 +520,32 @@ impl Ledger {
             self.workers_live(now),
             self.workers_eligible(&job.requires, now),
         ))
+    }
+
+    /// Announces job `id`'s current state.
+    pub(crate) fn job_changed(&self, id: u64) {
+        if let Some(job) = self.jobs.get(&id) {
+            self.events.publish(EventKind::JobState {
+                job: id,
+                state: job.state,
+                error: job.error.clone(),
+            });
+        }
+    }
+
+    /// Announces workers not heard from for a lease TTL, once per loss.
+    pub fn announce_lost(&mut self, now: Instant) {
+        for (&id, w) in self.workers.iter_mut() {
+            if w.is_live(now) {
+                w.announced_lost = false;
+            } else if !w.announced_lost {
+                w.announced_lost = true;
+                self.events.publish(EventKind::WorkerLost {
+                    worker_id: id,
+                    worker: w.name.clone(),
+                });
+            }
+        }
     }
 
     /// A page of the jobs `filter` selects, oldest first, and the cursor of the next page.
@@ -559,6 +596,7 @@ impl Ledger {
             None,
         )?;
         self.job_mut(id)?.state = JobState::Paused;
+        self.job_changed(id);
         tracing::info!(job = id, "job paused");
         self.info(id)
     }
@@ -586,6 +624,7 @@ impl Ledger {
         };
         db::set_job_state(&self.db, id, state, None, started, None)?;
         self.job_mut(id)?.state = state;
+        self.job_changed(id);
         tracing::info!(job = id, "job resumed");
         self.info(id)
     }
@@ -630,6 +669,7 @@ impl Ledger {
                 tile.worker = None;
             }
         }
+        self.job_changed(id);
         tracing::info!(job = id, "job requeued");
         self.info(id)
     }
@@ -747,6 +787,10 @@ impl Ledger {
             {
                 w.draining = true;
                 tracing::info!(worker = id, name = %w.name, "worker draining");
+                self.events.publish(EventKind::WorkerDraining {
+                    worker_id: *id,
+                    worker: w.name.clone(),
+                });
             }
         }
         Ok(self
@@ -782,6 +826,7 @@ impl Ledger {
         job.state = JobState::Cancelled;
         job.finished_ms = Some(now);
         job.drop_leases();
+        self.job_changed(id);
         tracing::info!(job = id, "job cancelled");
         self.info(id)
     }
@@ -821,6 +866,7 @@ impl Ledger {
         job.error = Some(error);
         job.finished_ms = Some(now);
         job.drop_leases();
+        self.job_changed(id);
         Ok(())
     }
 
@@ -861,8 +907,13 @@ impl Ledger {
             recent_tiles: VecDeque::new(),
             seen_until: Instant::now() + self.lease_ttl,
             polls: 0,
+            announced_lost: false,
         };
         self.workers.insert(id, worker);
+        self.events.publish(EventKind::WorkerJoined {
+            worker_id: id,
+            worker: name.to_string(),
+        });
         Ok(id)
     }
 
@@ -910,6 +961,7 @@ impl Ledger {
         job.error = None;
         job.finished_ms = Some(now);
         job.assembling = false;
+        self.job_changed(id);
         tracing::info!(job = id, state = "done", "job finished");
         Ok(())
     }

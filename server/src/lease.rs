@@ -25,7 +25,7 @@
 //!   worker is eligible for waits (its `workers_eligible` is 0), like a job with no worker.
 
 use spindle_common::protocol::{
-    Heartbeat, HeartbeatAck, JobState, Lease, TileFailure, TileOutcome, TileUpload,
+    EventKind, Heartbeat, HeartbeatAck, JobState, Lease, TileFailure, TileOutcome, TileUpload,
 };
 use tokio::time::Instant;
 
@@ -254,18 +254,23 @@ impl Ledger {
         let tile = &mut job.tiles[index as usize];
         tile.epoch = epoch;
         tile.worker = Some(worker);
+        tile.leased_at = Some(now);
         tile.status = TileStatus::Leased {
             deadline: now + ttl,
         };
         job.leased.insert(index);
         tracing::debug!(job = id, tile = index, epoch, worker, "tile leased");
-        Ok(Lease {
+        let lease = Lease {
             job_id: id,
             tile_index: index,
             rect: job.rects[index as usize],
             epoch,
             ttl_ms: ttl.as_millis() as u64,
-        })
+        };
+        if start.is_some() {
+            self.job_changed(id);
+        }
+        Ok(lease)
     }
 
     /// Renews a lease; 409 when it is no longer the worker's.
@@ -398,9 +403,13 @@ impl Ledger {
             &upload.pixels.stats,
         )?;
         tx.commit()?;
-        if let Some(w) = self.workers.get_mut(&upload.worker_id) {
-            w.tile_accepted(now_ms());
-        }
+        let worker = match self.workers.get_mut(&upload.worker_id) {
+            Some(w) => {
+                w.tile_accepted(now_ms());
+                w.name.clone()
+            }
+            None => String::new(),
+        };
         let job = self.job_mut(id)?;
         job.tiles[index as usize].status = TileStatus::Done {
             hash: upload.hash.clone(),
@@ -408,13 +417,24 @@ impl Ledger {
         job.leased.remove(&index);
         job.tiles_done += 1;
         job.stats.add(&upload.pixels.stats);
+        let seconds = job.tiles[index as usize]
+            .leased_at
+            .map(|at| at.elapsed().as_secs_f64());
+        let complete = job.is_complete();
+        self.events.publish(EventKind::TileDone {
+            job: id,
+            tile: index,
+            worker_id: upload.worker_id,
+            worker,
+            seconds,
+        });
         tracing::debug!(
             job = id,
             tile = index,
             worker = upload.worker_id,
             "tile done"
         );
-        Ok((TileOutcome::Accepted, job.is_complete()))
+        Ok((TileOutcome::Accepted, complete))
     }
 
     /// Records that a worker could not render its tile; may fail the job (see the rules above).
@@ -531,6 +551,7 @@ impl Ledger {
             job.error = Some(error);
             job.finished_ms = Some(at_ms);
             job.drop_leases();
+            self.job_changed(id);
             return Ok(());
         }
         self.fail_stuck_jobs(now)
