@@ -12,8 +12,8 @@ use anyhow::{Context, Result, anyhow};
 use reqwest::StatusCode;
 use serde::de::DeserializeOwned;
 use spindle_common::protocol::{
-    ApiError, AssetStored, IDEMPOTENCY_KEY_HEADER, JobInfo, JobList, MissingAssetsRequest,
-    MissingAssetsResponse, SubmitJob,
+    ApiError, AssetStored, IDEMPOTENCY_KEY_HEADER, JobInfo, JobList, JobPatch, JobState,
+    MissingAssetsRequest, MissingAssetsResponse, SubmitJob, WorkerList,
 };
 
 /// Tries of a request whose failure was transient (connection refused, 5xx).
@@ -95,9 +95,58 @@ impl Api {
         .await
     }
 
-    /// `GET /v1/jobs`.
+    /// `GET /v1/jobs` (the first page).
     pub async fn jobs(&self) -> Result<JobList> {
         self.json(|| self.http.get(self.url("/v1/jobs"))).await
+    }
+
+    /// `GET /v1/jobs?state=&name=&limit=&cursor=`: one page.
+    pub async fn jobs_page(&self, query: &JobQuery) -> Result<JobList> {
+        let mut pairs: Vec<(&str, String)> = Vec::new();
+        if let Some(s) = query.state {
+            pairs.push(("state", s.as_str().to_string()));
+        }
+        if let Some(n) = &query.name {
+            pairs.push(("name", n.clone()));
+        }
+        if let Some(l) = query.limit {
+            pairs.push(("limit", l.to_string()));
+        }
+        if let Some(c) = &query.cursor {
+            pairs.push(("cursor", c.clone()));
+        }
+        let mut url = reqwest::Url::parse(&self.url("/v1/jobs"))?;
+        if !pairs.is_empty() {
+            url.query_pairs_mut().extend_pairs(&pairs);
+        }
+        self.json(|| self.http.get(url.clone())).await
+    }
+
+    /// `POST /v1/jobs/{id}/{action}` (pause, resume, requeue).
+    pub async fn job_action(&self, id: u64, action: &str) -> Result<JobInfo> {
+        self.json(|| self.http.post(self.url(&format!("/v1/jobs/{id}/{action}"))))
+            .await
+    }
+
+    /// `PATCH /v1/jobs/{id}` with a new priority.
+    pub async fn set_priority(&self, id: u64, priority: i32) -> Result<JobInfo> {
+        let body = JobPatch {
+            priority: Some(priority),
+        };
+        self.json(|| {
+            self.http
+                .patch(self.url(&format!("/v1/jobs/{id}")))
+                .json(&body)
+        })
+        .await
+    }
+
+    /// `DELETE /v1/jobs/{id}` (`?force=true` for an unfinished job).
+    pub async fn delete(&self, id: u64, force: bool) -> Result<()> {
+        let force = if force { "?force=true" } else { "" };
+        let url = self.url(&format!("/v1/jobs/{id}{force}"));
+        self.send(|| self.http.delete(&url)).await?;
+        Ok(())
     }
 
     /// `GET /v1/jobs/{id}`.
@@ -110,6 +159,21 @@ impl Api {
     pub async fn cancel(&self, id: u64) -> Result<JobInfo> {
         self.json(|| self.http.post(self.url(&format!("/v1/jobs/{id}/cancel"))))
             .await
+    }
+
+    /// `GET /v1/workers`.
+    pub async fn workers(&self) -> Result<WorkerList> {
+        self.json(|| self.http.get(self.url("/v1/workers"))).await
+    }
+
+    /// `POST /v1/workers/{id}/drain` (an id or a name).
+    pub async fn drain(&self, name_or_id: &str) -> Result<WorkerList> {
+        let mut url = reqwest::Url::parse(&self.url("/v1/workers"))?;
+        url.path_segments_mut()
+            .map_err(|()| anyhow!("{}: cannot be a base URL", self.base))?
+            .push(name_or_id)
+            .push("drain");
+        self.json(|| self.http.post(url.clone())).await
     }
 
     /// `GET /v1/jobs/{id}/image.exr` (the final image) or `image.png` (the preview).
@@ -192,6 +256,15 @@ impl Api {
             delay *= 2;
         }
     }
+}
+
+/// The filters and page of `GET /v1/jobs`.
+#[derive(Debug, Clone, Default)]
+pub struct JobQuery {
+    pub state: Option<JobState>,
+    pub name: Option<String>,
+    pub limit: Option<usize>,
+    pub cursor: Option<String>,
 }
 
 /// Which image of a job to download.

@@ -3,13 +3,16 @@
 
 mod api;
 mod cancel;
+mod control;
 mod fetch;
+mod jobs;
 mod local_farm;
 mod progress;
 mod render;
 mod secret;
 mod status;
 mod submit;
+mod workers;
 
 use std::io::IsTerminal;
 use std::process::ExitCode;
@@ -43,10 +46,24 @@ enum Command {
     Submit(submit::SubmitArgs),
     /// Show one job, or every job.
     Status(status::StatusArgs),
+    /// List jobs (filter by state or name), oldest first.
+    Jobs(jobs::JobsArgs),
+    /// Pause a job: no new tiles are handed out; tiles in progress finish.
+    Pause(control::JobArg),
+    /// Resume a paused job.
+    Resume(control::JobArg),
+    /// Put a failed or cancelled job back in the queue (its finished tiles are kept).
+    Requeue(control::JobArg),
+    /// Change a job's priority (higher runs first).
+    Priority(control::PriorityArgs),
+    /// Delete a finished job: its tiles, images and records (--force for an unfinished one).
+    Delete(control::DeleteArgs),
     /// Download a finished job's image.
     Fetch(fetch::FetchArgs),
     /// Cancel a job.
     Cancel(cancel::CancelArgs),
+    /// List the farm's workers (state, lease, labels, tiles, throughput), or drain one.
+    Workers(workers::WorkersArgs),
 }
 
 fn main() -> ExitCode {
@@ -87,5 +104,12 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Status(args) => status::run(&api()?, args).await,
         Command::Fetch(args) => fetch::run(&api()?, args).await,
         Command::Cancel(args) => cancel::run(&api()?, args).await,
+        Command::Jobs(args) => jobs::run(&api()?, args).await,
+        Command::Pause(args) => control::change(&api()?, args, control::Change::Pause).await,
+        Command::Resume(args) => control::change(&api()?, args, control::Change::Resume).await,
+        Command::Requeue(args) => control::change(&api()?, args, control::Change::Requeue).await,
+        Command::Priority(args) => control::priority(&api()?, args).await,
+        Command::Delete(args) => control::delete(&api()?, args).await,
+        Command::Workers(args) => workers::run(&api()?, args).await,
     }
 }

@@ -136,8 +136,10 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
             &args.scene,
             Some(&edit),
             crate::submit::Check::AlreadyBuilt,
-            args.tile_size,
-            0,
+            &crate::submit::JobOptions {
+                tile_size: args.tile_size,
+                ..Default::default()
+            },
         )
         .await
     })

@@ -1,7 +1,7 @@
 //! `spindle status [JOB]`: one job's progress, or a table of every job.
 
 use anyhow::Result;
-use spindle_common::protocol::JobInfo;
+use spindle_common::protocol::{JobInfo, format_labels};
 
 use crate::api::Api;
 
@@ -32,41 +32,38 @@ pub async fn run(api: &Api, args: &StatusArgs) -> Result<()> {
             } else if list.jobs.is_empty() {
                 println!("no jobs");
             } else {
-                println!(
-                    "{:>6}  {:<10} {:>5}  {:>13}  {:>9}  {:>8}",
-                    "job", "state", "prio", "tiles", "size", "elapsed"
-                );
-                for j in &list.jobs {
-                    println!(
-                        "{:>6}  {:<10} {:>5}  {:>13}  {:>9}  {:>7.1}s",
-                        j.id,
-                        state_label(j),
-                        j.priority,
-                        format!("{}/{}", j.tiles_done, j.tiles_total),
-                        format!("{}x{}", j.width, j.height),
-                        j.elapsed_s
-                    );
-                }
+                print!("{}", crate::jobs::table(&list.jobs));
             }
         }
     }
     Ok(())
 }
 
-/// The job's state, with why nothing moves when no worker is connected.
-fn state_label(j: &JobInfo) -> String {
-    if !j.state.is_finished() && j.workers_live == 0 {
-        format!("{} — no workers connected", j.state.as_str())
+/// The job's state, with why nothing moves when no worker is connected or none may take it.
+pub fn state_label(j: &JobInfo) -> String {
+    let state = j.state.as_str();
+    if j.state.is_finished() {
+        state.to_string()
+    } else if j.workers_live == 0 {
+        format!("{state} — no workers connected")
+    } else if j.workers_eligible == 0 && !j.requires.is_empty() {
+        format!(
+            "{state} — no live worker has labels {}",
+            format_labels(&j.requires)
+        )
+    } else if j.workers_eligible == 0 {
+        format!("{state} — every live worker is draining")
     } else {
-        j.state.as_str().to_string()
+        state.to_string()
     }
 }
 
 /// A few lines about one job.
 fn describe(j: &JobInfo) -> String {
     let mut s = format!(
-        "job {}: {}\n  image     {}x{} in tiles of {} px, priority {}\n  tiles     {}/{} done\n  elapsed   {:.1} s\n",
+        "job {} ({}): {}\n  image     {}x{} in tiles of {} px, priority {}\n  tiles     {}/{} done\n  elapsed   {:.1} s\n",
         j.id,
+        j.name,
         state_label(j),
         j.width,
         j.height,
@@ -99,7 +96,7 @@ fn describe(j: &JobInfo) -> String {
 }
 
 /// `HH:MM:SS` UTC of a time in ms since the Unix epoch.
-fn utc_time(ms: i64) -> String {
+pub fn utc_time(ms: i64) -> String {
     let s = ms.div_euclid(1000).rem_euclid(86_400);
     format!("{:02}:{:02}:{:02}Z", s / 3600, s / 60 % 60, s % 60)
 }
@@ -112,6 +109,9 @@ mod tests {
     fn job(state: JobState, workers_live: u32) -> JobInfo {
         JobInfo {
             id: 3,
+            name: "box".into(),
+            submitter: None,
+            submitted_at_ms: 0,
             state,
             priority: 0,
             width: 8,
@@ -124,6 +124,8 @@ mod tests {
             error: None,
             recent_errors: Vec::new(),
             workers_live,
+            requires: Default::default(),
+            workers_eligible: workers_live,
             stats: Default::default(),
         }
     }
@@ -132,13 +134,21 @@ mod tests {
     fn a_waiting_job_says_when_no_worker_is_connected() {
         let text = describe(&job(JobState::Queued, 0));
         assert!(
-            text.starts_with("job 3: queued — no workers connected\n"),
+            text.starts_with("job 3 (box): queued — no workers connected\n"),
             "{text}"
         );
         let text = describe(&job(JobState::Queued, 2));
-        assert!(text.starts_with("job 3: queued\n"), "{text}");
+        assert!(text.starts_with("job 3 (box): queued\n"), "{text}");
         let text = describe(&job(JobState::Done, 0));
-        assert!(text.starts_with("job 3: done\n"), "{text}");
+        assert!(text.starts_with("job 3 (box): done\n"), "{text}");
+        let mut picky = job(JobState::Queued, 2);
+        picky.requires.insert("pool".into(), "night".into());
+        picky.workers_eligible = 0;
+        let text = describe(&picky);
+        assert!(
+            text.starts_with("job 3 (box): queued — no live worker has labels pool=night\n"),
+            "{text}"
+        );
     }
 
     #[test]

@@ -13,7 +13,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use anyhow::{Context, Result};
-use spindle_common::protocol::{DEFAULT_TILE_SIZE, JobInfo, SubmitJob, asset_hash};
+use spindle_common::protocol::{DEFAULT_TILE_SIZE, JobInfo, SubmitJob, asset_hash, parse_label};
 use spindle_common::scene::SceneDescription;
 
 use crate::api::Api;
@@ -35,24 +35,47 @@ pub struct SubmitArgs {
     /// Higher runs first; equal priorities run in submission order.
     #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
     pub priority: i32,
+    /// Lease the job only to workers with this `key=value` label (`spindle-worker --label`);
+    /// repeatable: a worker needs every one.
+    #[arg(long = "require", value_name = "KEY=VALUE", value_parser = parse_label)]
+    pub requires: Vec<(String, String)>,
+    /// The job's name (default: the scene file's name without `.json`).
+    #[arg(long)]
+    pub name: Option<String>,
+    /// Who submits it, a label shown in `spindle jobs` (default: $USER).
+    #[arg(long)]
+    pub submitter: Option<String>,
+    /// With --wait: download the final EXR here when the job is done.
+    #[arg(short, long, requires = "wait")]
+    pub output: Option<std::path::PathBuf>,
 }
 
 /// Runs `spindle submit`: prints the job id on stdout; with `--wait`, fails unless the job ends
 /// `done`.
 pub async fn run(api: &Api, args: &SubmitArgs) -> Result<()> {
-    let job = submit_scene_file(
-        api,
-        &args.scene,
-        None,
-        Check::Build,
-        args.tile_size,
-        args.priority,
-    )
-    .await?;
+    let options = JobOptions {
+        tile_size: args.tile_size,
+        priority: args.priority,
+        requires: args.requires.iter().cloned().collect(),
+        name: args.name.clone().or_else(|| {
+            args.scene
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+        }),
+        submitter: args
+            .submitter
+            .clone()
+            .or_else(|| std::env::var("USER").ok())
+            .filter(|s| !s.is_empty()),
+    };
+    let job = submit_scene_file(api, &args.scene, None, Check::Build, &options).await?;
     println!("{}", job.id);
     if args.wait {
         let end = wait_for(api, job.id, Wait::default()).await?;
         crate::progress::require_done(&end)?;
+        if let Some(output) = &args.output {
+            crate::fetch::download(api, job.id, Some(output), false).await?;
+        }
     }
     Ok(())
 }
@@ -66,6 +89,16 @@ pub enum Check {
     AlreadyBuilt,
 }
 
+/// How a job is to be run, besides its scene.
+#[derive(Debug, Clone, Default)]
+pub struct JobOptions {
+    pub tile_size: u32,
+    pub priority: i32,
+    pub requires: BTreeMap<String, String>,
+    pub name: Option<String>,
+    pub submitter: Option<String>,
+}
+
 /// Reads the scene file and its meshes, uploads the meshes the coordinator lacks, and submits
 /// the job. `edit` may change the scene before it is sent (the local farm's `--spp`/`--seed`).
 pub async fn submit_scene_file(
@@ -73,8 +106,7 @@ pub async fn submit_scene_file(
     scene_path: &Path,
     edit: Option<&dyn Fn(&mut SceneDescription)>,
     check: Check,
-    tile_size: u32,
-    priority: i32,
+    options: &JobOptions,
 ) -> Result<JobInfo> {
     let mut files = load_scene(scene_path)?;
     if let Some(edit) = edit {
@@ -116,8 +148,11 @@ pub async fn submit_scene_file(
     let job = SubmitJob {
         scene: files.desc,
         assets: table,
-        tile_size,
-        priority,
+        tile_size: options.tile_size,
+        priority: options.priority,
+        requires: options.requires.clone(),
+        name: options.name.clone(),
+        submitter: options.submitter.clone(),
     };
     let key = random_hex();
     api.submit(&job, &key)

@@ -21,14 +21,21 @@
 //! | PUT | `/v1/assets/{hash}` | client | raw bytes (blake3 hex = `hash`, else 400) → [`AssetStored`] |
 //! | GET | `/v1/assets/{hash}` | worker | → raw bytes |
 //! | POST | `/v1/jobs` | client | [`SubmitJob`] (+ optional [`IDEMPOTENCY_KEY_HEADER`]) → 201 [`JobInfo`] (200 when the key was seen) |
-//! | GET | `/v1/jobs` | client | → [`JobList`] |
+//! | GET | `/v1/jobs` | client | `?state=&name=&limit=&cursor=` → [`JobList`] |
 //! | GET | `/v1/jobs/{id}` | client | → [`JobInfo`] |
 //! | POST | `/v1/jobs/{id}/cancel` | client | → [`JobInfo`] |
-//! | DELETE | `/v1/jobs/{id}` | client | → 204 |
+//! | DELETE | `/v1/jobs/{id}` | client | `?force=true` to delete an unfinished job → 204 |
+//! | PATCH | `/v1/jobs/{id}` | client | [`JobPatch`] → [`JobInfo`] |
+//! | POST | `/v1/jobs/{id}/pause` | client | → [`JobInfo`] |
+//! | POST | `/v1/jobs/{id}/resume` | client | → [`JobInfo`] |
+//! | POST | `/v1/jobs/{id}/requeue` | client | → [`JobInfo`] (a failed or cancelled job) |
 //! | GET | `/v1/jobs/{id}/image.exr` | client | → the final EXR; 409 until the job is done |
 //! | GET | `/v1/jobs/{id}/image.png` | client | → a PNG preview of the tiles received so far |
+//! | GET | `/v1/events` | client | Server-Sent Events, each a [`FarmEvent`]; `Last-Event-ID` resumes |
+//! | GET | `/v1/workers` | client | → [`WorkerList`] |
+//! | POST | `/v1/workers/{id}/drain` | client | (id or name) → [`WorkerList`] of the workers told to drain |
 //! | POST | `/v1/workers` | worker | [`RegisterWorker`] → [`WorkerRegistered`] |
-//! | POST | `/v1/workers/{id}/lease` | worker | [`LeaseRequest`] (or empty body) → 200 [`Lease`], or 204 after the long poll |
+//! | POST | `/v1/workers/{id}/lease` | worker | [`LeaseRequest`] (or empty body) → 200 [`Lease`], or 204 after the long poll; 410 when the worker is draining (it exits) |
 //! | GET | `/v1/jobs/{id}/spec` | worker | → [`JobSpec`] |
 //! | POST | `/v1/leases/{job}/{tile}/heartbeat` | worker | [`Heartbeat`] → [`HeartbeatAck`]; 409 when the lease is no longer yours |
 //! | PUT | `/v1/jobs/{job}/tiles/{tile}` | worker | [`TileUpload`] → [`TileAck`]; 409 stale epoch or a different result |
@@ -109,7 +116,46 @@ pub struct SubmitJob {
     /// Higher runs first; equal priorities run in submission order.
     #[serde(default)]
     pub priority: i32,
+    /// Worker labels the job needs (`{"pool": "night"}`): it is leased only to workers whose
+    /// labels include every one of these. Checked with [`check_labels`].
+    #[serde(default)]
+    pub requires: BTreeMap<String, String>,
+    /// A name for people (`spindle submit` sends the scene file's stem); `job-<id>` when absent.
+    /// 1 to [`MAX_NAME_LEN`] bytes, no control characters.
+    #[serde(default)]
+    pub name: Option<String>,
+    /// Who submitted the job (`spindle submit` sends `$USER`); a label, not an identity.
+    /// 1 to [`MAX_NAME_LEN`] bytes, no control characters.
+    #[serde(default)]
+    pub submitter: Option<String>,
 }
+
+/// Longest job name or submitter, in bytes.
+pub const MAX_NAME_LEN: usize = 128;
+
+/// Checks a job name or submitter: 1 to [`MAX_NAME_LEN`] bytes, no control characters.
+pub fn check_name(field: &str, value: &str) -> Result<(), String> {
+    if value.is_empty() || value.len() > MAX_NAME_LEN {
+        return Err(format!("{field}: must be 1 to {MAX_NAME_LEN} bytes"));
+    }
+    if value.chars().any(char::is_control) {
+        return Err(format!("{field}: must not contain control characters"));
+    }
+    Ok(())
+}
+
+/// A change to a submitted job (`PATCH /v1/jobs/{id}`).
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct JobPatch {
+    /// The new priority: higher runs first.
+    pub priority: Option<i32>,
+}
+
+/// Jobs a `GET /v1/jobs` page holds when the query does not say.
+pub const DEFAULT_JOB_PAGE: usize = 100;
+/// Most jobs one `GET /v1/jobs` page holds.
+pub const MAX_JOB_PAGE: usize = 1000;
 
 fn default_tile_size() -> u32 {
     DEFAULT_TILE_SIZE
@@ -131,6 +177,8 @@ pub enum JobState {
     Failed,
     /// Cancelled by a client.
     Cancelled,
+    /// Paused by a client: no new tiles are leased; tiles already leased finish and are kept.
+    Paused,
 }
 
 impl JobState {
@@ -150,6 +198,7 @@ impl JobState {
             JobState::Done => "done",
             JobState::Failed => "failed",
             JobState::Cancelled => "cancelled",
+            JobState::Paused => "paused",
         }
     }
 
@@ -161,6 +210,7 @@ impl JobState {
             JobState::Done,
             JobState::Failed,
             JobState::Cancelled,
+            JobState::Paused,
         ]
         .into_iter()
         .find(|s| s.as_str() == name)
@@ -172,6 +222,11 @@ impl JobState {
 #[serde(deny_unknown_fields)]
 pub struct JobInfo {
     pub id: u64,
+    /// The job's name ([`SubmitJob::name`], or `job-<id>`).
+    pub name: String,
+    pub submitter: Option<String>,
+    /// When the job was submitted, in ms since the Unix epoch.
+    pub submitted_at_ms: i64,
     pub state: JobState,
     pub priority: i32,
     pub width: u32,
@@ -190,6 +245,12 @@ pub struct JobInfo {
     /// Workers connected to the coordinator now (in a lease poll, holding a lease, or heard
     /// from within one lease TTL): 0 means nobody will render a queued job until one connects.
     pub workers_live: u32,
+    /// The worker labels the job needs ([`SubmitJob::requires`]).
+    pub requires: BTreeMap<String, String>,
+    /// Connected workers that may take this job's tiles now: not draining, and labelled with
+    /// every one of `requires`. With `workers_live > 0` and this 0, the job waits for an
+    /// eligible worker.
+    pub workers_eligible: u32,
     /// Counters of the tiles received so far.
     pub stats: RenderStats,
 }
@@ -212,11 +273,13 @@ pub struct TileError {
     pub message: String,
 }
 
-/// All jobs, oldest first.
+/// A page of jobs, oldest first.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct JobList {
     pub jobs: Vec<JobInfo>,
+    /// Pass as `cursor` for the next page; absent on the last page. Opaque.
+    pub next_cursor: Option<String>,
 }
 
 /// A worker introduces itself.
@@ -227,7 +290,197 @@ pub struct RegisterWorker {
     pub name: String,
     /// Render threads the worker runs.
     pub threads: u32,
+    /// The worker's version (`spindle-worker --version`).
+    #[serde(default)]
+    pub version: String,
+    /// `key=value` labels (`--label pool=night`) that jobs can require; see [`check_labels`].
+    #[serde(default)]
+    pub labels: BTreeMap<String, String>,
 }
+
+/// Most labels a worker may carry or a job may require.
+pub const MAX_LABELS: usize = 16;
+/// Longest label key or value, in bytes.
+pub const MAX_LABEL_LEN: usize = 63;
+
+/// Checks one label key or value: 1 to [`MAX_LABEL_LEN`] ASCII letters, digits, `_`, `-`, `.`.
+fn check_label_part(what: &str, s: &str) -> Result<(), String> {
+    if s.is_empty() || s.len() > MAX_LABEL_LEN {
+        return Err(format!("{what} {s:?}: must be 1 to {MAX_LABEL_LEN} bytes"));
+    }
+    if let Some(c) = s
+        .chars()
+        .find(|c| !(c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.')))
+    {
+        return Err(format!(
+            "{what} {s:?}: {c:?} is not allowed (letters, digits, _ - . only)"
+        ));
+    }
+    Ok(())
+}
+
+/// Checks a set of labels (a worker's, or a job's requirements); `field` names them in the
+/// error (`labels: key "a b": ' ' is not allowed …`).
+pub fn check_labels(field: &str, labels: &BTreeMap<String, String>) -> Result<(), String> {
+    if labels.len() > MAX_LABELS {
+        return Err(format!(
+            "{field}: {} labels, at most {MAX_LABELS} are allowed",
+            labels.len()
+        ));
+    }
+    for (k, v) in labels {
+        check_label_part("key", k).map_err(|e| format!("{field}: {e}"))?;
+        check_label_part("value", v).map_err(|e| format!("{field}.{k}: {e}"))?;
+    }
+    Ok(())
+}
+
+/// Parses one `key=value` label as given on a command line, checked like [`check_labels`].
+pub fn parse_label(s: &str) -> Result<(String, String), String> {
+    let (k, v) = s
+        .split_once('=')
+        .ok_or_else(|| format!("{s:?}: expected key=value"))?;
+    check_label_part("key", k)?;
+    check_label_part("value", v)?;
+    Ok((k.to_string(), v.to_string()))
+}
+
+/// `k=v,k2=v2`, for messages.
+pub fn format_labels(labels: &BTreeMap<String, String>) -> String {
+    labels
+        .iter()
+        .map(|(k, v)| format!("{k}={v}"))
+        .collect::<Vec<_>>()
+        .join(",")
+}
+
+/// What a worker is doing, as the coordinator sees it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum WorkerState {
+    /// Connected, holding no lease.
+    Idle,
+    /// Holding a lease.
+    Rendering,
+    /// Told to drain: it finishes the tile in hand, takes no more and exits.
+    Draining,
+    /// Not heard from (no lease poll, heartbeat or upload) for longer than the lease TTL.
+    Lost,
+}
+
+impl WorkerState {
+    /// The lowercase name used on the wire.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            WorkerState::Idle => "idle",
+            WorkerState::Rendering => "rendering",
+            WorkerState::Draining => "draining",
+            WorkerState::Lost => "lost",
+        }
+    }
+}
+
+/// One worker, as listed by `GET /v1/workers`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct WorkerInfo {
+    pub id: u64,
+    pub name: String,
+    pub version: String,
+    pub threads: u32,
+    pub labels: BTreeMap<String, String>,
+    pub state: WorkerState,
+    /// The job and tile of a lease the worker holds (the lowest, if it holds several).
+    pub job: Option<u64>,
+    pub tile: Option<u32>,
+    /// When the worker was last heard from (lease poll, heartbeat, upload, failure), in ms
+    /// since the Unix epoch.
+    pub last_seen_ms: i64,
+    /// Tiles the coordinator accepted from this worker, ever.
+    pub tiles_done: u64,
+    /// Tile failures this worker reported, ever.
+    pub failures: u64,
+    /// Tiles accepted in the last [`THROUGHPUT_WINDOW_S`] seconds, divided by that window in
+    /// minutes.
+    pub tiles_per_min: f64,
+}
+
+/// The window of [`WorkerInfo::tiles_per_min`], in seconds.
+pub const THROUGHPUT_WINDOW_S: u64 = 300;
+
+/// Registered workers, by id: every connected one, and the lost ones heard from within
+/// [`LOST_WORKERS_LISTED_S`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct WorkerList {
+    pub workers: Vec<WorkerInfo>,
+}
+
+/// One event of `GET /v1/events` (Server-Sent Events): the SSE `id:` is `id`, the SSE
+/// `event:` is `type`, and `data:` is this object as JSON.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct FarmEvent {
+    /// Grows by one with every event.
+    pub id: u64,
+    /// When it happened, in ms since the Unix epoch.
+    pub at_ms: i64,
+    #[serde(flatten)]
+    pub kind: EventKind,
+}
+
+/// What a [`FarmEvent`] says.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum EventKind {
+    /// A job entered `state` (submitted: `queued`).
+    JobState {
+        job: u64,
+        state: JobState,
+        error: Option<String>,
+    },
+    /// A tile was accepted; `seconds` from its lease to its upload (absent when the lease was
+    /// granted before a coordinator restart).
+    TileDone {
+        job: u64,
+        tile: u32,
+        worker_id: u64,
+        worker: String,
+        seconds: Option<f64>,
+    },
+    WorkerJoined {
+        worker_id: u64,
+        worker: String,
+    },
+    WorkerDraining {
+        worker_id: u64,
+        worker: String,
+    },
+    /// Not heard from for longer than the lease TTL.
+    WorkerLost {
+        worker_id: u64,
+        worker: String,
+    },
+    /// The `Last-Event-ID` a client reconnected with is older than the events kept: refetch
+    /// the state (`GET /v1/jobs`, `GET /v1/workers`), then follow on from this event's id.
+    Reset,
+}
+
+impl EventKind {
+    /// The SSE event name (the `type` field).
+    pub fn name(&self) -> &'static str {
+        match self {
+            EventKind::JobState { .. } => "job_state",
+            EventKind::TileDone { .. } => "tile_done",
+            EventKind::WorkerJoined { .. } => "worker_joined",
+            EventKind::WorkerDraining { .. } => "worker_draining",
+            EventKind::WorkerLost { .. } => "worker_lost",
+            EventKind::Reset => "reset",
+        }
+    }
+}
+
+/// How long a lost worker stays in [`WorkerList`], in seconds.
+pub const LOST_WORKERS_LISTED_S: u64 = 3600;
 
 /// The id a worker uses in every later request.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
@@ -284,6 +537,9 @@ pub struct Heartbeat {
 #[serde(deny_unknown_fields)]
 pub struct HeartbeatAck {
     pub ttl_ms: u64,
+    /// The worker is draining: finish this tile, deliver it, ask for no more and exit.
+    #[serde(default)]
+    pub drain: bool,
 }
 
 /// A rendered tile.
@@ -446,14 +702,67 @@ mod tests {
                         "film":{"width":8,"height":8}}"#;
         let ok: SubmitJob = serde_json::from_str(&format!(r#"{{"scene":{scene}}}"#)).unwrap();
         assert_eq!((ok.tile_size, ok.priority), (32, 0));
-        assert!(ok.assets.is_empty());
+        assert!(ok.assets.is_empty() && ok.requires.is_empty());
         let bad = serde_json::from_str::<SubmitJob>(&format!(r#"{{"scene":{scene},"spp":3}}"#));
         assert!(bad.unwrap_err().to_string().contains("unknown field `spp`"));
         let lease: LeaseRequest = serde_json::from_str("{}").unwrap();
         assert_eq!(lease.wait_ms, None);
-        for s in ["queued", "running", "done", "failed", "cancelled"] {
+        for s in ["queued", "running", "done", "failed", "cancelled", "paused"] {
             let state = JobState::parse(s).unwrap();
             assert_eq!(serde_json::to_value(state).unwrap(), s);
         }
+    }
+
+    #[test]
+    fn events_are_flat_json_with_their_type() {
+        let e = FarmEvent {
+            id: 7,
+            at_ms: 1,
+            kind: EventKind::JobState {
+                job: 3,
+                state: JobState::Running,
+                error: None,
+            },
+        };
+        let v = serde_json::to_value(&e).unwrap();
+        assert_eq!(
+            v,
+            serde_json::json!({"id": 7, "at_ms": 1, "type": "job_state", "job": 3,
+                               "state": "running", "error": null})
+        );
+        assert_eq!(e.kind.name(), v["type"]);
+        assert_eq!(serde_json::from_value::<FarmEvent>(v).unwrap(), e);
+    }
+
+    #[test]
+    fn labels_are_checked_naming_the_field() {
+        assert_eq!(
+            parse_label("pool=night"),
+            Ok(("pool".into(), "night".into()))
+        );
+        let long = format!("k={}", "v".repeat(64));
+        for bad in [
+            "pool",
+            "=night",
+            "pool=",
+            "po ol=x",
+            "pool=a/b",
+            long.as_str(),
+        ] {
+            assert!(parse_label(bad).is_err(), "{bad}");
+        }
+        let mut labels: BTreeMap<String, String> = (0..MAX_LABELS)
+            .map(|i| (format!("k{i}"), "v".into()))
+            .collect();
+        assert_eq!(check_labels("labels", &labels), Ok(()));
+        labels.insert("one-more".into(), "v".into());
+        assert!(
+            check_labels("labels", &labels)
+                .unwrap_err()
+                .starts_with("labels: 17 labels")
+        );
+        let bad = BTreeMap::from([("pool".to_string(), "a b".to_string())]);
+        let err = check_labels("requires", &bad).unwrap_err();
+        assert!(err.starts_with("requires.pool: value \"a b\""), "{err}");
     }
 }

@@ -60,6 +60,18 @@ const MIGRATIONS: &[&str] = &[
 "#,
     // When each failure was reported (0 for failures recorded before this column).
     "ALTER TABLE tile_failures ADD COLUMN at_ms INTEGER NOT NULL DEFAULT 0;",
+    // Worker labels and job requirements (JSON objects), worker versions, draining workers.
+    r#"
+    ALTER TABLE jobs ADD COLUMN requires TEXT NOT NULL DEFAULT '{}';
+    ALTER TABLE workers ADD COLUMN version TEXT NOT NULL DEFAULT '';
+    ALTER TABLE workers ADD COLUMN labels TEXT NOT NULL DEFAULT '{}';
+    ALTER TABLE workers ADD COLUMN draining INTEGER NOT NULL DEFAULT 0;
+"#,
+    // Job names ('' for jobs stored before: shown as job-<id>) and submitters.
+    r#"
+    ALTER TABLE jobs ADD COLUMN name TEXT NOT NULL DEFAULT '';
+    ALTER TABLE jobs ADD COLUMN submitter TEXT;
+"#,
 ];
 
 /// Opens (creating if needed) the database at `path` and brings its schema up to date.
@@ -100,6 +112,11 @@ pub struct JobRow {
     pub error: Option<String>,
     pub idempotency_key: Option<String>,
     pub request_hash: String,
+    /// The worker labels the job needs, a JSON object.
+    pub requires_json: String,
+    /// '' when the submission had none.
+    pub name: String,
+    pub submitter: Option<String>,
     pub created_ms: i64,
     pub started_ms: Option<i64>,
     pub finished_ms: Option<i64>,
@@ -135,15 +152,19 @@ pub struct FailureRow {
 /// Inserts a new job and returns its id.
 pub fn insert_job(conn: &Connection, row: &JobRow) -> rusqlite::Result<u64> {
     conn.execute(
-        "INSERT INTO jobs (spec, priority, state, error, idempotency_key, request_hash, created_ms)
-         VALUES (?1, ?2, ?3, NULL, ?4, ?5, ?6)",
+        "INSERT INTO jobs (spec, priority, state, error, idempotency_key, request_hash, created_ms,
+                           requires, name, submitter)
+         VALUES (?1, ?2, ?3, NULL, ?4, ?5, ?6, ?7, ?8, ?9)",
         params![
             row.spec_json,
             row.priority,
             row.state.as_str(),
             row.idempotency_key,
             row.request_hash,
-            row.created_ms
+            row.created_ms,
+            row.requires_json,
+            row.name,
+            row.submitter
         ],
     )?;
     Ok(conn.last_insert_rowid() as u64)
@@ -153,7 +174,7 @@ pub fn insert_job(conn: &Connection, row: &JobRow) -> rusqlite::Result<u64> {
 pub fn load_jobs(conn: &Connection) -> anyhow::Result<Vec<JobRow>> {
     let mut stmt = conn.prepare(
         "SELECT id, spec, priority, state, error, idempotency_key, request_hash, created_ms,
-                started_ms, finished_ms FROM jobs ORDER BY id",
+                started_ms, finished_ms, requires, name, submitter FROM jobs ORDER BY id",
     )?;
     let rows = stmt.query_map([], |r| {
         Ok((
@@ -165,6 +186,9 @@ pub fn load_jobs(conn: &Connection) -> anyhow::Result<Vec<JobRow>> {
                 error: r.get(4)?,
                 idempotency_key: r.get(5)?,
                 request_hash: r.get(6)?,
+                requires_json: r.get(10)?,
+                name: r.get(11)?,
+                submitter: r.get(12)?,
                 created_ms: r.get(7)?,
                 started_ms: r.get(8)?,
                 finished_ms: r.get(9)?,
@@ -237,11 +261,41 @@ pub fn load_failures(conn: &Connection, job: u64) -> anyhow::Result<Vec<FailureR
     Ok(rows.collect::<Result<_, _>>()?)
 }
 
-/// Every registered worker: `(id, name, threads)`.
-pub fn load_workers(conn: &Connection) -> rusqlite::Result<Vec<(u64, String, u32)>> {
-    let mut stmt = conn.prepare("SELECT id, name, threads FROM workers")?;
+/// A worker row as stored, with its counts of done tiles and failures.
+#[derive(Debug, Clone)]
+pub struct WorkerRow {
+    pub id: u64,
+    pub name: String,
+    pub threads: u32,
+    pub version: String,
+    /// Its labels, a JSON object.
+    pub labels_json: String,
+    pub draining: bool,
+    pub registered_ms: i64,
+    pub tiles_done: u64,
+    pub failures: u64,
+}
+
+/// Every registered worker.
+pub fn load_workers(conn: &Connection) -> rusqlite::Result<Vec<WorkerRow>> {
+    let mut stmt = conn.prepare(
+        "SELECT w.id, w.name, w.threads, w.version, w.labels, w.draining, w.registered_ms,
+                (SELECT COUNT(*) FROM tiles t WHERE t.worker_id = w.id AND t.state = 'done'),
+                (SELECT COUNT(*) FROM tile_failures f WHERE f.worker_id = w.id)
+         FROM workers w",
+    )?;
     let rows = stmt.query_map([], |r| {
-        Ok((r.get::<_, i64>(0)? as u64, r.get(1)?, r.get(2)?))
+        Ok(WorkerRow {
+            id: r.get::<_, i64>(0)? as u64,
+            name: r.get(1)?,
+            threads: r.get(2)?,
+            version: r.get(3)?,
+            labels_json: r.get(4)?,
+            draining: r.get(5)?,
+            registered_ms: r.get(6)?,
+            tiles_done: r.get::<_, i64>(7)? as u64,
+            failures: r.get::<_, i64>(8)? as u64,
+        })
     })?;
     rows.collect()
 }
@@ -251,13 +305,25 @@ pub fn insert_worker(
     conn: &Connection,
     name: &str,
     threads: u32,
+    version: &str,
+    labels_json: &str,
     now_ms: i64,
 ) -> rusqlite::Result<u64> {
     conn.execute(
-        "INSERT INTO workers (name, threads, registered_ms) VALUES (?1, ?2, ?3)",
-        params![name, threads, now_ms],
+        "INSERT INTO workers (name, threads, registered_ms, version, labels)
+         VALUES (?1, ?2, ?3, ?4, ?5)",
+        params![name, threads, now_ms, version, labels_json],
     )?;
     Ok(conn.last_insert_rowid() as u64)
+}
+
+/// Marks a worker as draining.
+pub fn set_worker_draining(conn: &Connection, worker: u64) -> rusqlite::Result<()> {
+    conn.execute(
+        "UPDATE workers SET draining = 1 WHERE id = ?1",
+        [worker as i64],
+    )?;
+    Ok(())
 }
 
 /// The job an idempotency key created, with the hash of the request that created it.
@@ -284,6 +350,26 @@ pub fn set_job_state(
     conn.execute(
         "UPDATE jobs SET state = ?2, error = ?3, started_ms = ?4, finished_ms = ?5 WHERE id = ?1",
         params![job as i64, state.as_str(), error, started_ms, finished_ms],
+    )?;
+    Ok(())
+}
+
+/// Records a job's priority.
+pub fn set_job_priority(conn: &Connection, job: u64, priority: i32) -> rusqlite::Result<()> {
+    conn.execute(
+        "UPDATE jobs SET priority = ?2 WHERE id = ?1",
+        params![job as i64, priority],
+    )?;
+    Ok(())
+}
+
+/// Puts a job's unfinished tiles back in the queue and forgets its tile failures (a requeue);
+/// done tiles are kept.
+pub fn requeue_job(tx: &Transaction<'_>, job: u64) -> rusqlite::Result<()> {
+    tx.execute("DELETE FROM tile_failures WHERE job_id = ?1", [job as i64])?;
+    tx.execute(
+        "UPDATE tiles SET state = 'pending' WHERE job_id = ?1 AND state != 'done'",
+        [job as i64],
     )?;
     Ok(())
 }
@@ -394,6 +480,9 @@ mod tests {
             error: None,
             idempotency_key: Some("k".into()),
             request_hash: "h".into(),
+            requires_json: "{}".into(),
+            name: "n".into(),
+            submitter: None,
             created_ms: 5,
             started_ms: None,
             finished_ms: None,

@@ -24,6 +24,9 @@ pub enum Error {
     /// The request conflicts with the current state: a stale lease, a job not done yet (409).
     #[error("{0}")]
     Conflict(String),
+    /// The worker was told to drain: it must take no more tiles and exit (410).
+    #[error("{0}")]
+    Gone(String),
     /// The body or the whole request did not arrive in time (408, and the connection closes).
     #[error("{0}")]
     Timeout(String),
@@ -56,6 +59,7 @@ impl Error {
             Error::Unauthorized(_) => StatusCode::UNAUTHORIZED,
             Error::NotFound(_) => StatusCode::NOT_FOUND,
             Error::Conflict(_) => StatusCode::CONFLICT,
+            Error::Gone(_) => StatusCode::GONE,
             Error::Timeout(_) => StatusCode::REQUEST_TIMEOUT,
             Error::TooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
             Error::TooMany(_) | Error::RateLimited { .. } => StatusCode::TOO_MANY_REQUESTS,

@@ -12,7 +12,8 @@ use std::time::Duration;
 
 use rusqlite::Connection;
 use spindle_common::protocol::{
-    JobInfo, JobSpec, JobState, RECENT_TILE_ERRORS, SubmitJob, TileError,
+    EventKind, JobInfo, JobSpec, JobState, LOST_WORKERS_LISTED_S, RECENT_TILE_ERRORS, SubmitJob,
+    THROUGHPUT_WINDOW_S, TileError, WorkerInfo, WorkerState, format_labels,
 };
 use spindle_common::stats::RenderStats;
 use spindle_common::tile::{TileRect, split_centre_first};
@@ -20,6 +21,7 @@ use tokio::time::Instant;
 
 use crate::db::{self, JobRow, TileRowState};
 use crate::error::Error;
+use crate::events::Events;
 
 /// Worker failures on one tile that fail its job.
 pub const TILE_FAILURE_LIMIT: usize = 3;
@@ -37,31 +39,87 @@ pub struct Ledger {
     pub(crate) lease_ttl: Duration,
     /// Idempotency key → (job, hash of the request that created it).
     keys: HashMap<String, (u64, String)>,
+    /// Where every job state change, finished tile and worker change is announced.
+    pub(crate) events: Arc<Events>,
 }
 
 /// One registered worker, as far as the coordinator can tell.
 pub struct Worker {
     pub name: String,
     pub threads: u32,
+    pub version: String,
+    pub labels: BTreeMap<String, String>,
+    /// Told to drain: it gets no more leases (410) and its heartbeats answer `drain`.
+    pub draining: bool,
+    /// Wall-clock time it was last heard from, in ms since the Unix epoch.
+    pub last_seen_ms: i64,
+    /// Tiles accepted from it, and tile failures it reported, ever.
+    pub tiles_done: u64,
+    pub failures: u64,
+    /// When its tiles were accepted within the last [`THROUGHPUT_WINDOW_S`] (ms since the
+    /// Unix epoch, oldest first; trimmed as tiles arrive, at most [`MAX_RECENT_TILES`]).
+    pub recent_tiles: VecDeque<i64>,
     /// The worker counts as connected until then, unless it is in a lease poll: renewed by
     /// every request it makes, by one lease TTL.
     pub seen_until: Instant,
     /// Lease long polls of this worker in progress.
     pub polls: u32,
+    /// Its loss was announced (reset when it is heard from again).
+    pub announced_lost: bool,
 }
+
+/// Bound on [`Worker::recent_tiles`]: beyond it the throughput saturates rather than memory
+/// growing with a fast worker.
+pub const MAX_RECENT_TILES: usize = 100_000;
 
 impl Worker {
     /// Is the worker connected at `now`?
     pub fn is_live(&self, now: Instant) -> bool {
         self.polls > 0 || self.seen_until > now
     }
+
+    /// May the worker take tiles of a job requiring `requires` at `now`: connected, not
+    /// draining, and labelled with every requirement.
+    pub fn eligible(&self, requires: &BTreeMap<String, String>, now: Instant) -> bool {
+        self.is_live(now) && !self.draining && self.has_labels(requires)
+    }
+
+    /// Does the worker carry every label of `requires`?
+    pub fn has_labels(&self, requires: &BTreeMap<String, String>) -> bool {
+        requires.iter().all(|(k, v)| self.labels.get(k) == Some(v))
+    }
+
+    /// Notes a tile accepted at `at_ms`.
+    pub(crate) fn tile_accepted(&mut self, at_ms: i64) {
+        self.tiles_done += 1;
+        if self.recent_tiles.len() == MAX_RECENT_TILES {
+            self.recent_tiles.pop_front();
+        }
+        self.recent_tiles.push_back(at_ms);
+        let since = at_ms - THROUGHPUT_WINDOW_S as i64 * 1000;
+        while self.recent_tiles.front().is_some_and(|&t| t < since) {
+            self.recent_tiles.pop_front();
+        }
+    }
+
+    /// Tiles accepted within the last [`THROUGHPUT_WINDOW_S`] before `now_ms`, per minute.
+    pub fn tiles_per_min(&self, now_ms: i64) -> f64 {
+        let since = now_ms - THROUGHPUT_WINDOW_S as i64 * 1000;
+        let n = self.recent_tiles.iter().filter(|&&t| t >= since).count();
+        n as f64 / (THROUGHPUT_WINDOW_S as f64 / 60.0)
+    }
 }
 
 /// One job.
 pub struct Job {
     pub id: u64,
+    /// As submitted; '' for none (shown as `job-<id>`).
+    pub name: String,
+    pub submitter: Option<String>,
     pub spec: Arc<JobSpec>,
     pub priority: i32,
+    /// Worker labels a worker must carry to be leased this job's tiles.
+    pub requires: BTreeMap<String, String>,
     pub state: JobState,
     pub error: Option<String>,
     pub created_ms: i64,
@@ -95,6 +153,8 @@ pub struct Tile {
     /// The worker of the latest lease, while that lease may still report.
     pub worker: Option<u64>,
     pub status: TileStatus,
+    /// When the latest lease was granted by this process.
+    pub leased_at: Option<Instant>,
 }
 
 /// Where a tile is.
@@ -125,13 +185,17 @@ impl Job {
                 epoch: 0,
                 worker: None,
                 status: TileStatus::Pending,
+                leased_at: None,
             };
             rects.len()
         ];
         Job {
             id,
+            name: String::new(),
+            submitter: None,
             spec,
             priority,
+            requires: BTreeMap::new(),
             state: JobState::Queued,
             error: None,
             created_ms,
@@ -150,9 +214,24 @@ impl Job {
         }
     }
 
-    /// Is the job still handing out tiles?
+    /// Is the job still taking tiles: heartbeats, uploads and failures of its leases (paused
+    /// jobs too)?
     pub fn is_active(&self) -> bool {
         !self.state.is_finished() && !self.assembling
+    }
+
+    /// Does the job hand out new leases (active and not paused)?
+    pub fn is_leasing(&self) -> bool {
+        self.is_active() && self.state != JobState::Paused
+    }
+
+    /// The name clients see.
+    pub fn display_name(&self) -> String {
+        if self.name.is_empty() {
+            format!("job-{}", self.id)
+        } else {
+            self.name.clone()
+        }
     }
 
     /// Is every tile in?
@@ -161,8 +240,8 @@ impl Job {
     }
 
     /// The job as clients see it, at wall-clock time `now_ms`, with `workers_live` workers
-    /// connected.
-    pub fn info(&self, now_ms: i64, workers_live: u32) -> JobInfo {
+    /// connected, `workers_eligible` of which may take its tiles.
+    pub fn info(&self, now_ms: i64, workers_live: u32, workers_eligible: u32) -> JobInfo {
         let elapsed_ms = match self.started_ms {
             Some(start) => (self.finished_ms.unwrap_or(now_ms) - start).max(0),
             None => 0,
@@ -173,6 +252,9 @@ impl Job {
             .then(|| elapsed_s / self.tiles_done as f64 * (total - self.tiles_done) as f64);
         JobInfo {
             id: self.id,
+            name: self.display_name(),
+            submitter: self.submitter.clone(),
+            submitted_at_ms: self.created_ms,
             state: self.state,
             priority: self.priority,
             width: self.spec.scene.film.width,
@@ -185,6 +267,8 @@ impl Job {
             error: self.error.clone(),
             recent_errors: self.recent_errors.iter().cloned().collect(),
             workers_live,
+            requires: self.requires.clone(),
+            workers_eligible,
             stats: self.stats,
         }
     }
@@ -207,10 +291,24 @@ impl Job {
     }
 }
 
+/// Which jobs `GET /v1/jobs` lists.
+#[derive(Debug, Clone)]
+pub struct JobFilter {
+    pub state: Option<JobState>,
+    /// Jobs whose name contains this.
+    pub name: Option<String>,
+    /// Jobs with a larger id only (the cursor).
+    pub after: Option<u64>,
+    pub limit: usize,
+}
+
 /// An admitted submission, ready to be stored.
 pub struct NewJob {
     pub spec: JobSpec,
     pub priority: i32,
+    pub requires: BTreeMap<String, String>,
+    pub name: Option<String>,
+    pub submitter: Option<String>,
     pub idempotency_key: Option<String>,
     /// blake3 of the canonical request, to tell a retry from a different request with the
     /// same key.
@@ -229,6 +327,9 @@ impl NewJob {
                 tile_size: submit.tile_size,
             },
             priority: submit.priority,
+            requires: submit.requires,
+            name: submit.name,
+            submitter: submit.submitter,
             idempotency_key,
         })
     }
@@ -249,6 +350,10 @@ impl Ledger {
             let spec: JobSpec = serde_json::from_str(&row.spec_json)
                 .map_err(|e| anyhow::anyhow!("job {}: stored spec: {e}", row.id))?;
             let mut job = Job::new(row.id, Arc::new(spec), row.priority, row.created_ms);
+            job.name = row.name;
+            job.submitter = row.submitter;
+            job.requires = serde_json::from_str(&row.requires_json)
+                .map_err(|e| anyhow::anyhow!("job {}: stored requirements: {e}", row.id))?;
             job.state = row.state;
             job.error = row.error;
             job.started_ms = row.started_ms;
@@ -301,24 +406,35 @@ impl Ledger {
             jobs.insert(row.id, job);
         }
         // Workers known before a restart get the same grace as their leases to come back.
-        let workers = db::load_workers(&db)?
-            .into_iter()
-            .map(|(id, name, threads)| {
-                let worker = Worker {
-                    name,
-                    threads,
-                    seen_until: now + grace,
-                    polls: 0,
-                };
-                (id, worker)
-            })
-            .collect();
+        let wall = now_ms();
+        let mut workers = HashMap::new();
+        for row in db::load_workers(&db)? {
+            let labels = serde_json::from_str(&row.labels_json)
+                .map_err(|e| anyhow::anyhow!("worker {}: stored labels: {e}", row.id))?;
+            let worker = Worker {
+                name: row.name,
+                threads: row.threads,
+                version: row.version,
+                labels,
+                draining: row.draining,
+                // Not known across a restart; the restart is when it was last accounted for.
+                last_seen_ms: wall.max(row.registered_ms),
+                tiles_done: row.tiles_done,
+                failures: row.failures,
+                recent_tiles: VecDeque::new(),
+                seen_until: now + grace,
+                polls: 0,
+                announced_lost: false,
+            };
+            workers.insert(row.id, worker);
+        }
         Ok(Ledger {
             db,
             jobs,
             workers,
             lease_ttl,
             keys,
+            events: Arc::new(Events::default()),
         })
     }
 
@@ -368,17 +484,24 @@ impl Ledger {
             error: None,
             idempotency_key: new.idempotency_key.clone(),
             request_hash: new.request_hash.clone(),
+            requires_json: serde_json::to_string(&new.requires).map_err(anyhow::Error::from)?,
+            name: new.name.clone().unwrap_or_default(),
+            submitter: new.submitter.clone(),
             created_ms: now,
             started_ms: None,
             finished_ms: None,
         };
         let id = db::insert_job(&self.db, &row)?;
-        let job = Job::new(id, Arc::new(new.spec), new.priority, now);
+        let mut job = Job::new(id, Arc::new(new.spec), new.priority, now);
+        job.requires = new.requires;
+        job.name = new.name.unwrap_or_default();
+        job.submitter = new.submitter;
         self.jobs.insert(id, job);
         let info = self.info(id)?;
         if let Some(key) = new.idempotency_key {
             self.keys.insert(key, (id, new.request_hash));
         }
+        self.job_changed(id);
         tracing::info!(
             job = id,
             tiles = info.tiles_total,
@@ -390,16 +513,291 @@ impl Ledger {
 
     /// A job as clients see it now.
     pub fn info(&self, id: u64) -> Result<JobInfo, Error> {
-        Ok(self
-            .job(id)?
-            .info(now_ms(), self.workers_live(Instant::now())))
+        let now = Instant::now();
+        let job = self.job(id)?;
+        Ok(job.info(
+            now_ms(),
+            self.workers_live(now),
+            self.workers_eligible(&job.requires, now),
+        ))
     }
 
-    /// All jobs, oldest first.
-    pub fn list(&self) -> Vec<JobInfo> {
-        let now = now_ms();
-        let live = self.workers_live(Instant::now());
-        self.jobs.values().map(|j| j.info(now, live)).collect()
+    /// Announces job `id`'s current state.
+    pub(crate) fn job_changed(&self, id: u64) {
+        if let Some(job) = self.jobs.get(&id) {
+            self.events.publish(EventKind::JobState {
+                job: id,
+                state: job.state,
+                error: job.error.clone(),
+            });
+        }
+    }
+
+    /// Announces workers not heard from for a lease TTL, once per loss.
+    pub fn announce_lost(&mut self, now: Instant) {
+        for (&id, w) in self.workers.iter_mut() {
+            if w.is_live(now) {
+                w.announced_lost = false;
+            } else if !w.announced_lost {
+                w.announced_lost = true;
+                self.events.publish(EventKind::WorkerLost {
+                    worker_id: id,
+                    worker: w.name.clone(),
+                });
+            }
+        }
+    }
+
+    /// A page of the jobs `filter` selects, oldest first, and the cursor of the next page.
+    pub fn list(&self, filter: &JobFilter) -> (Vec<JobInfo>, Option<String>) {
+        let now = Instant::now();
+        let wall = now_ms();
+        let live = self.workers_live(now);
+        let start = filter.after.map_or(0, |a| a.saturating_add(1));
+        let mut selected = self.jobs.range(start..).map(|(_, j)| j).filter(|j| {
+            filter.state.is_none_or(|s| j.state == s)
+                && filter
+                    .name
+                    .as_ref()
+                    .is_none_or(|n| j.display_name().contains(n.as_str()))
+        });
+        let page: Vec<JobInfo> = selected
+            .by_ref()
+            .take(filter.limit)
+            .map(|j| j.info(wall, live, self.workers_eligible(&j.requires, now)))
+            .collect();
+        let next = match (page.last(), selected.next()) {
+            (Some(last), Some(_)) => Some(last.id.to_string()),
+            _ => None,
+        };
+        (page, next)
+    }
+
+    /// Pauses a queued or running job: no new leases; leased tiles finish and are kept.
+    pub fn pause(&mut self, id: u64) -> Result<JobInfo, Error> {
+        let job = self.job(id)?;
+        match job.state {
+            JobState::Paused => return self.info(id),
+            JobState::Queued | JobState::Running => {}
+            finished => {
+                return Err(Error::Conflict(format!(
+                    "job {id} is {}; only a queued or running job can be paused",
+                    finished.as_str()
+                )));
+            }
+        }
+        let (started, error) = (job.started_ms, job.error.clone());
+        db::set_job_state(
+            &self.db,
+            id,
+            JobState::Paused,
+            error.as_deref(),
+            started,
+            None,
+        )?;
+        self.job_mut(id)?.state = JobState::Paused;
+        self.job_changed(id);
+        tracing::info!(job = id, "job paused");
+        self.info(id)
+    }
+
+    /// Resumes a paused job (running if it had started, else queued); a job that is not
+    /// paused and not finished is left as it is.
+    pub fn resume(&mut self, id: u64) -> Result<JobInfo, Error> {
+        let job = self.job(id)?;
+        match job.state {
+            JobState::Paused => {}
+            JobState::Queued | JobState::Running => return self.info(id),
+            finished => {
+                return Err(Error::Conflict(format!(
+                    "job {id} is {}; only a paused job can be resumed (requeue a failed or \
+                     cancelled one)",
+                    finished.as_str()
+                )));
+            }
+        }
+        let started = job.started_ms;
+        let state = if started.is_some() {
+            JobState::Running
+        } else {
+            JobState::Queued
+        };
+        db::set_job_state(&self.db, id, state, None, started, None)?;
+        self.job_mut(id)?.state = state;
+        self.job_changed(id);
+        tracing::info!(job = id, "job resumed");
+        self.info(id)
+    }
+
+    /// Puts a failed or cancelled job back in the queue: its unfinished tiles are pending again
+    /// and its failures forgotten (finished tiles are kept). A done job is a conflict.
+    pub fn requeue(&mut self, id: u64, max_active: usize) -> Result<JobInfo, Error> {
+        let job = self.job(id)?;
+        if !matches!(job.state, JobState::Failed | JobState::Cancelled) {
+            return Err(Error::Conflict(format!(
+                "job {id} is {}; only a failed or cancelled job can be requeued",
+                job.state.as_str()
+            )));
+        }
+        let active = self
+            .jobs
+            .values()
+            .filter(|j| !j.state.is_finished())
+            .count();
+        if active >= max_active {
+            return Err(Error::TooMany(format!(
+                "{active} jobs are queued or running, the limit is {max_active}"
+            )));
+        }
+        let tx = self.db.transaction()?;
+        db::requeue_job(&tx, id)?;
+        db::set_job_state(&tx, id, JobState::Queued, None, None, None)?;
+        tx.commit()?;
+        let job = self.job_mut(id)?;
+        job.state = JobState::Queued;
+        job.error = None;
+        job.started_ms = None;
+        job.finished_ms = None;
+        job.failed_by.clear();
+        job.strikes.clear();
+        job.failures = 0;
+        job.recent_errors.clear();
+        job.leased.clear();
+        for tile in &mut job.tiles {
+            if !matches!(tile.status, TileStatus::Done { .. }) {
+                tile.status = TileStatus::Pending;
+                tile.worker = None;
+            }
+        }
+        self.job_changed(id);
+        tracing::info!(job = id, "job requeued");
+        self.info(id)
+    }
+
+    /// Changes a job's priority.
+    pub fn set_priority(&mut self, id: u64, priority: i32) -> Result<JobInfo, Error> {
+        self.job(id)?;
+        db::set_job_priority(&self.db, id, priority)?;
+        self.job_mut(id)?.priority = priority;
+        tracing::info!(job = id, priority, "job priority changed");
+        self.info(id)
+    }
+
+    /// How many workers may take tiles of a job requiring `requires` at `now`.
+    pub fn workers_eligible(&self, requires: &BTreeMap<String, String>, now: Instant) -> u32 {
+        let n = self
+            .workers
+            .values()
+            .filter(|w| w.eligible(requires, now))
+            .count();
+        u32::try_from(n).unwrap_or(u32::MAX)
+    }
+
+    /// Every connected worker and the lost ones heard from within [`LOST_WORKERS_LISTED_S`],
+    /// by id.
+    pub fn worker_list(&self) -> Vec<WorkerInfo> {
+        let now = Instant::now();
+        let wall = now_ms();
+        // The lowest leased (job, tile) of each worker.
+        let mut holding: HashMap<u64, (u64, u32)> = HashMap::new();
+        for job in self.jobs.values() {
+            for &index in &job.leased {
+                if let Some(w) = job.tiles[index as usize].worker {
+                    holding.entry(w).or_insert((job.id, index));
+                }
+            }
+        }
+        let mut list: Vec<WorkerInfo> = self
+            .workers
+            .iter()
+            .filter(|(_, w)| {
+                w.is_live(now) || wall - w.last_seen_ms <= LOST_WORKERS_LISTED_S as i64 * 1000
+            })
+            .map(|(&id, w)| {
+                let lease = holding.get(&id).copied();
+                let state = if !w.is_live(now) {
+                    WorkerState::Lost
+                } else if w.draining {
+                    WorkerState::Draining
+                } else if lease.is_some() {
+                    WorkerState::Rendering
+                } else {
+                    WorkerState::Idle
+                };
+                WorkerInfo {
+                    id,
+                    name: w.name.clone(),
+                    version: w.version.clone(),
+                    threads: w.threads,
+                    labels: w.labels.clone(),
+                    state,
+                    job: lease.map(|l| l.0),
+                    tile: lease.map(|l| l.1),
+                    last_seen_ms: w.last_seen_ms,
+                    tiles_done: w.tiles_done,
+                    failures: w.failures,
+                    tiles_per_min: w.tiles_per_min(wall),
+                }
+            })
+            .collect();
+        list.sort_by_key(|w| w.id);
+        list
+    }
+
+    /// Tells the connected workers named `name_or_id` (an id, or a name) to drain: they get no
+    /// more leases and exit after the tile in hand. Returns them as listed after the change.
+    pub fn drain(&mut self, name_or_id: &str) -> Result<Vec<WorkerInfo>, Error> {
+        let now = Instant::now();
+        let by_id = name_or_id
+            .parse::<u64>()
+            .ok()
+            .filter(|id| self.workers.contains_key(id));
+        let matching: Vec<u64> = match by_id {
+            Some(id) => vec![id],
+            None => self
+                .workers
+                .iter()
+                .filter(|(_, w)| w.name == name_or_id)
+                .map(|(&id, _)| id)
+                .collect(),
+        };
+        if matching.is_empty() {
+            return Err(Error::NotFound(format!(
+                "no worker has the id or name {name_or_id:?}"
+            )));
+        }
+        let live: Vec<u64> = matching
+            .into_iter()
+            .filter(|id| self.workers[id].is_live(now))
+            .collect();
+        if live.is_empty() {
+            return Err(Error::Conflict(format!(
+                "worker {name_or_id:?} is lost (not heard from within the lease TTL); \
+                 there is nothing to drain"
+            )));
+        }
+        let tx = self.db.transaction()?;
+        for &id in &live {
+            db::set_worker_draining(&tx, id)?;
+        }
+        tx.commit()?;
+        for id in &live {
+            if let Some(w) = self.workers.get_mut(id)
+                && !w.draining
+            {
+                w.draining = true;
+                tracing::info!(worker = id, name = %w.name, "worker draining");
+                self.events.publish(EventKind::WorkerDraining {
+                    worker_id: *id,
+                    worker: w.name.clone(),
+                });
+            }
+        }
+        Ok(self
+            .worker_list()
+            .into_iter()
+            .filter(|w| live.contains(&w.id))
+            .collect())
     }
 
     /// How many workers are connected at `now`.
@@ -419,7 +817,7 @@ impl Ledger {
                     job.state.as_str()
                 )));
             }
-            JobState::Queued | JobState::Running => {}
+            JobState::Queued | JobState::Running | JobState::Paused => {}
         }
         let now = now_ms();
         let started = job.started_ms;
@@ -428,13 +826,21 @@ impl Ledger {
         job.state = JobState::Cancelled;
         job.finished_ms = Some(now);
         job.drop_leases();
+        self.job_changed(id);
         tracing::info!(job = id, "job cancelled");
         self.info(id)
     }
 
-    /// Forgets a job (its files are removed by the caller).
-    pub fn delete(&mut self, id: u64) -> Result<(), Error> {
-        self.job(id)?;
+    /// Forgets a job (its files are removed by the caller). An unfinished job is a conflict
+    /// unless `force`.
+    pub fn delete(&mut self, id: u64, force: bool) -> Result<(), Error> {
+        let job = self.job(id)?;
+        if !job.state.is_finished() && !force {
+            return Err(Error::Conflict(format!(
+                "job {id} is {}; cancel it first, or delete it with ?force=true",
+                job.state.as_str()
+            )));
+        }
         db::delete_job(&self.db, id)?;
         self.jobs.remove(&id);
         self.keys.retain(|_, (job, _)| *job != id);
@@ -460,6 +866,7 @@ impl Ledger {
         job.error = Some(error);
         job.finished_ms = Some(now);
         job.drop_leases();
+        self.job_changed(id);
         Ok(())
     }
 
@@ -469,17 +876,44 @@ impl Ledger {
         Ok(())
     }
 
-    /// Registers a worker.
-    pub fn register_worker(&mut self, name: &str, threads: u32) -> Result<u64, Error> {
-        let id = db::insert_worker(&self.db, name, threads, now_ms())?;
+    /// Registers a worker (its labels already checked).
+    pub fn register_worker(
+        &mut self,
+        name: &str,
+        threads: u32,
+        version: &str,
+        labels: BTreeMap<String, String>,
+    ) -> Result<u64, Error> {
+        let now = now_ms();
+        let labels_json = serde_json::to_string(&labels).map_err(anyhow::Error::from)?;
+        let id = db::insert_worker(&self.db, name, threads, version, &labels_json, now)?;
+        tracing::info!(
+            worker = id,
+            name,
+            threads,
+            version,
+            labels = %format_labels(&labels),
+            "worker registered"
+        );
         let worker = Worker {
             name: name.to_string(),
             threads,
+            version: version.to_string(),
+            labels,
+            draining: false,
+            last_seen_ms: now,
+            tiles_done: 0,
+            failures: 0,
+            recent_tiles: VecDeque::new(),
             seen_until: Instant::now() + self.lease_ttl,
             polls: 0,
+            announced_lost: false,
         };
         self.workers.insert(id, worker);
-        tracing::info!(worker = id, name, threads, "worker registered");
+        self.events.publish(EventKind::WorkerJoined {
+            worker_id: id,
+            worker: name.to_string(),
+        });
         Ok(id)
     }
 
@@ -527,6 +961,7 @@ impl Ledger {
         job.error = None;
         job.finished_ms = Some(now);
         job.assembling = false;
+        self.job_changed(id);
         tracing::info!(job = id, state = "done", "job finished");
         Ok(())
     }

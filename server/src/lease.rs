@@ -19,9 +19,13 @@
 //!   connected worker failed it or is kept off the job). With no worker connected at all, jobs
 //!   wait: there is nobody to judge by.
 //! - A worker is connected while it is in a lease poll, and for one lease TTL after any request.
+//! - A job with `requires` is leased only to workers whose labels include every requirement;
+//!   a draining worker is leased nothing (410) and its heartbeats answer `drain`. Only workers
+//!   that may take a job's tiles count when judging whether it is stuck: a job no connected
+//!   worker is eligible for waits (its `workers_eligible` is 0), like a job with no worker.
 
 use spindle_common::protocol::{
-    Heartbeat, HeartbeatAck, JobState, Lease, TileFailure, TileOutcome, TileUpload,
+    EventKind, Heartbeat, HeartbeatAck, JobState, Lease, TileFailure, TileOutcome, TileUpload,
 };
 use tokio::time::Instant;
 
@@ -58,6 +62,7 @@ impl Ledger {
         let ttl = self.lease_ttl;
         if let Some(w) = self.workers.get_mut(&worker) {
             w.seen_until = w.seen_until.max(now + ttl);
+            w.last_seen_ms = now_ms();
         }
     }
 
@@ -83,21 +88,21 @@ impl Ledger {
     /// connected worker has failed or is kept off, or every connected worker kept off the job.
     /// With no worker connected, nothing is decided.
     pub fn fail_stuck_jobs(&mut self, now: Instant) -> Result<(), Error> {
-        let mut live: Vec<u64> = self
-            .workers
-            .iter()
-            .filter(|(_, w)| w.is_live(now))
-            .map(|(&id, _)| id)
-            .collect();
-        if live.is_empty() {
-            return Ok(());
-        }
-        live.sort_unstable();
         let mut stuck = Vec::new();
         for job in self.jobs.values() {
-            if !job.is_active() || job.failed_by.is_empty() {
+            if !job.is_leasing() || job.failed_by.is_empty() {
                 continue;
             }
+            let mut live: Vec<u64> = self
+                .workers
+                .iter()
+                .filter(|(_, w)| w.eligible(&job.requires, now))
+                .map(|(&id, _)| id)
+                .collect();
+            if live.is_empty() {
+                continue;
+            }
+            live.sort_unstable();
             let kept_off = |w: &u64| {
                 job.strikes
                     .get(w)
@@ -195,17 +200,25 @@ impl Ledger {
     pub fn try_lease(&mut self, worker: u64, now: Instant) -> Result<Option<Lease>, Error> {
         self.check_worker(worker)?;
         self.seen(worker, now);
+        if self.workers[&worker].draining {
+            return Err(Error::Gone(format!(
+                "worker {worker} is draining: take no more tiles and exit"
+            )));
+        }
         self.expire_leases(now);
         self.fail_stuck_jobs(now)?;
         let mut order: Vec<(i32, u64)> = self
             .jobs
             .values()
-            .filter(|j| j.is_active())
+            .filter(|j| j.is_leasing())
             .map(|j| (j.priority, j.id))
             .collect();
         order.sort_by_key(|&(priority, id)| (std::cmp::Reverse(priority), id));
         for (_, id) in order {
             let job = &self.jobs[&id];
+            if !self.workers[&worker].has_labels(&job.requires) {
+                continue;
+            }
             if job
                 .strikes
                 .get(&worker)
@@ -241,18 +254,23 @@ impl Ledger {
         let tile = &mut job.tiles[index as usize];
         tile.epoch = epoch;
         tile.worker = Some(worker);
+        tile.leased_at = Some(now);
         tile.status = TileStatus::Leased {
             deadline: now + ttl,
         };
         job.leased.insert(index);
         tracing::debug!(job = id, tile = index, epoch, worker, "tile leased");
-        Ok(Lease {
+        let lease = Lease {
             job_id: id,
             tile_index: index,
             rect: job.rects[index as usize],
             epoch,
             ttl_ms: ttl.as_millis() as u64,
-        })
+        };
+        if start.is_some() {
+            self.job_changed(id);
+        }
+        Ok(lease)
     }
 
     /// Renews a lease; 409 when it is no longer the worker's.
@@ -265,6 +283,7 @@ impl Ledger {
     ) -> Result<HeartbeatAck, Error> {
         let ttl = self.lease_ttl;
         self.seen(hb.worker_id, now);
+        let drain = self.workers.get(&hb.worker_id).is_some_and(|w| w.draining);
         let job = self.job_mut(id)?;
         check_index(job, index)?;
         if !job.is_active() {
@@ -284,6 +303,7 @@ impl Ledger {
                 job.leased.insert(index);
                 Ok(HeartbeatAck {
                     ttl_ms: ttl.as_millis() as u64,
+                    drain,
                 })
             }
             TileStatus::Done { .. } => Err(Error::Conflict(format!(
@@ -383,6 +403,13 @@ impl Ledger {
             &upload.pixels.stats,
         )?;
         tx.commit()?;
+        let worker = match self.workers.get_mut(&upload.worker_id) {
+            Some(w) => {
+                w.tile_accepted(now_ms());
+                w.name.clone()
+            }
+            None => String::new(),
+        };
         let job = self.job_mut(id)?;
         job.tiles[index as usize].status = TileStatus::Done {
             hash: upload.hash.clone(),
@@ -390,13 +417,24 @@ impl Ledger {
         job.leased.remove(&index);
         job.tiles_done += 1;
         job.stats.add(&upload.pixels.stats);
+        let seconds = job.tiles[index as usize]
+            .leased_at
+            .map(|at| at.elapsed().as_secs_f64());
+        let complete = job.is_complete();
+        self.events.publish(EventKind::TileDone {
+            job: id,
+            tile: index,
+            worker_id: upload.worker_id,
+            worker,
+            seconds,
+        });
         tracing::debug!(
             job = id,
             tile = index,
             worker = upload.worker_id,
             "tile done"
         );
-        Ok((TileOutcome::Accepted, job.is_complete()))
+        Ok((TileOutcome::Accepted, complete))
     }
 
     /// Records that a worker could not render its tile; may fail the job (see the rules above).
@@ -469,10 +507,13 @@ impl Ledger {
         }
         tx.commit()?;
 
-        let name = self
-            .workers
-            .get(&failure.worker_id)
-            .map_or_else(String::new, |w| w.name.clone());
+        let name = match self.workers.get_mut(&failure.worker_id) {
+            Some(w) => {
+                w.failures += 1;
+                w.name.clone()
+            }
+            None => String::new(),
+        };
         let job = self.job_mut(id)?;
         let tile = &mut job.tiles[index as usize];
         tile.status = TileStatus::Pending;
@@ -510,6 +551,7 @@ impl Ledger {
             job.error = Some(error);
             job.finished_ms = Some(at_ms);
             job.drop_leases();
+            self.job_changed(id);
             return Ok(());
         }
         self.fail_stuck_jobs(now)

@@ -15,6 +15,7 @@ pub mod auth;
 pub mod config;
 pub mod db;
 pub mod error;
+pub mod events;
 pub mod extract;
 pub mod jobs;
 pub mod lease;
@@ -47,6 +48,8 @@ pub struct AppState {
 struct Shared {
     config: Config,
     ledger: Mutex<Ledger>,
+    /// The ledger's event log, reachable without its lock.
+    events: Arc<events::Events>,
     assets: AssetStore,
     tiles: TileStore,
     client_rate: throttle::ClientRate,
@@ -74,11 +77,13 @@ impl AppState {
         })
         .await??;
         let jobs = ledger.jobs.len();
+        let events = ledger.events.clone();
         let client_rate = throttle::ClientRate::new(config.client_rate_per_s);
         let state = AppState {
             inner: Arc::new(Shared {
                 config,
                 ledger: Mutex::new(ledger),
+                events,
                 assets,
                 tiles,
                 client_rate,
@@ -88,7 +93,32 @@ impl AppState {
         };
         tracing::info!(jobs, data = %state.config().data_dir.display(), "coordinator state loaded");
         state.assemble_complete_jobs();
+        state.spawn_loss_watch();
         Ok(state)
+    }
+
+    /// Announces lost workers as they go quiet: checks every half lease TTL until shutdown.
+    fn spawn_loss_watch(&self) {
+        let state = self.clone();
+        let period = (self.config().lease_ttl / 2).max(std::time::Duration::from_millis(20));
+        tokio::spawn(async move {
+            let mut tick = tokio::time::interval(period);
+            loop {
+                tokio::select! {
+                    _ = tick.tick() => state.ledger().announce_lost(tokio::time::Instant::now()),
+                    _ = state.shutdown_signal() => return,
+                }
+            }
+        });
+    }
+
+    pub(crate) fn events(&self) -> &events::Events {
+        &self.inner.events
+    }
+
+    /// Cancelled when the coordinator begins to shut down.
+    pub(crate) fn shutdown_token(&self) -> CancellationToken {
+        self.inner.shutdown.clone()
     }
 
     /// The configuration the coordinator runs with.

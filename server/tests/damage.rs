@@ -169,8 +169,12 @@ async fn an_upload_racing_a_delete_or_cancel_is_answered_404_or_409() {
             c.client(Method::POST, &format!("/v1/jobs/{}/cancel", job.id), None)
                 .await
         } else {
-            c.client(Method::DELETE, &format!("/v1/jobs/{}", job.id), None)
-                .await
+            c.client(
+                Method::DELETE,
+                &format!("/v1/jobs/{}?force=true", job.id),
+                None,
+            )
+            .await
         };
         let (stopped, stop_body) = (status, v);
         let (status, v) = uploading.await.unwrap();

@@ -232,13 +232,19 @@ impl Farm {
 
     /// Starts a worker with `threads` render threads; returns its index in `workers`.
     pub fn add_worker(&mut self, name: &str, threads: usize) -> Result<usize> {
+        self.add_worker_with(name, threads, &[])
+    }
+
+    /// [`Farm::add_worker`] with more command-line arguments (`--label pool=night`).
+    pub fn add_worker_with(&mut self, name: &str, threads: usize, args: &[&str]) -> Result<usize> {
         let mut cmd = Command::new(binary("spindle-worker"));
         cmd.arg("--coordinator")
             .arg(self.base())
             .arg("--threads")
             .arg(threads.to_string())
             .arg("--name")
-            .arg(name);
+            .arg(name)
+            .args(args);
         let env = [("SPINDLE_WORKER_TOKEN", self.worker_token.as_str())];
         let proc = Proc::spawn(cmd, &env, self.dir.path(), name)?;
         self.workers.push(proc);
@@ -298,6 +304,9 @@ impl Farm {
             assets: table,
             tile_size,
             priority: 0,
+            requires: BTreeMap::new(),
+            name: None,
+            submitter: None,
         };
         let resp = self
             .client(reqwest::Method::POST, "/v1/jobs")

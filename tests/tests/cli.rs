@@ -1,13 +1,15 @@
 //! The `spindle` command end to end: `render` through its embedded local farm and in process,
-//! and `submit` / `status` / `fetch` / `cancel` against a real coordinator.
+//! and `submit` / `status` / `fetch` / `cancel` / `workers` against a real coordinator.
 
 use std::path::Path;
 use std::process::{Command, Output};
 use std::time::Duration;
 
 use spindle_common::image::read_exr;
-use spindle_common::protocol::{JobInfo, JobState};
-use spindle_tests::{Farm, assert_bit_identical, binary, reference_image, test_scene};
+use spindle_common::protocol::{JobInfo, JobState, WorkerList, WorkerState};
+use spindle_tests::{
+    Farm, accepted_tiles, assert_bit_identical, binary, reference_image, test_scene,
+};
 
 const TEST_TIMEOUT: Duration = Duration::from_secs(150);
 
@@ -27,7 +29,15 @@ fn write_scene(dir: &Path, width: u32, height: u32, spp: u32) -> std::path::Path
 /// Runs `spindle` with `args` (killed if it outlives the test's timeout) and the farm's
 /// address and client token in its environment.
 async fn spindle(args: &[&str], farm: Option<&Farm>) -> Output {
+    spindle_in(None, args, farm).await
+}
+
+/// [`spindle`] run in the directory `cwd`.
+async fn spindle_in(cwd: Option<&Path>, args: &[&str], farm: Option<&Farm>) -> Output {
     let mut cmd = Command::new(binary("spindle"));
+    if let Some(cwd) = cwd {
+        cmd.current_dir(cwd);
+    }
     cmd.args(args)
         .env_remove("SPINDLE_SERVER")
         .env_remove("SPINDLE_TOKEN");
@@ -264,4 +274,184 @@ async fn submit_wait_status_fetch_and_cancel_against_a_coordinator() {
     })
     .await
     .expect("the test finished in time");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_job_requiring_a_label_is_rendered_only_by_the_labelled_worker() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write_scene(dir.path(), 32, 16, 1);
+    let s = scene.to_str().unwrap();
+    let mut farm = Farm::start(5.0).await.unwrap();
+    farm.add_worker("day", 1).unwrap();
+    farm.add_worker_with("night", 1, &["--label", "pool=night"])
+        .unwrap();
+    farm.wait_registered(0).await.unwrap();
+    farm.wait_registered(1).await.unwrap();
+
+    let out = spindle(&["workers", "--json"], Some(&farm)).await;
+    assert!(out.status.success(), "{}", text(&out));
+    let list: WorkerList = serde_json::from_slice(&out.stdout).unwrap();
+    let night = list.workers.iter().find(|w| w.name == "night").unwrap();
+    assert_eq!(night.labels.get("pool").map(String::as_str), Some("night"));
+    assert!(list.workers.iter().all(|w| w.state != WorkerState::Lost));
+
+    let out = spindle(
+        &[
+            "submit",
+            s,
+            "--require",
+            "pool=night",
+            "--tile-size",
+            "8",
+            "--wait",
+        ],
+        Some(&farm),
+    )
+    .await;
+    assert!(out.status.success(), "{}\n{}", text(&out), farm.logs());
+    let (day, night) = (
+        accepted_tiles(&farm.workers[0].log()),
+        accepted_tiles(&farm.workers[1].log()),
+    );
+    assert_eq!((day, night), (0, 8), "{}", farm.logs());
+
+    let out = spindle(&["submit", s, "--require", "pool"], Some(&farm)).await;
+    assert!(!out.status.success());
+    assert!(text(&out).contains("expected key=value"), "{}", text(&out));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_drained_worker_finishes_its_tile_takes_no_more_and_exits_0() {
+    let dir = tempfile::tempdir().unwrap();
+    // 64 tiles of 64 px × 2000 samples: far more than the worker renders before the drain
+    // reaches it.
+    let scene = write_scene(dir.path(), 64, 64, 2000);
+    let s = scene.to_str().unwrap();
+    let mut farm = Farm::start(5.0).await.unwrap();
+    farm.add_worker("leaving", 1).unwrap();
+    farm.wait_registered(0).await.unwrap();
+    let out = spindle(&["submit", s, "--tile-size", "8"], Some(&farm)).await;
+    assert!(out.status.success(), "{}", text(&out));
+    let id: u64 = String::from_utf8_lossy(&out.stdout).trim().parse().unwrap();
+
+    // Drain it while it renders.
+    let deadline = std::time::Instant::now() + Duration::from_secs(60);
+    loop {
+        let out = spindle(&["workers", "--json"], Some(&farm)).await;
+        let list: WorkerList = serde_json::from_slice(&out.stdout).unwrap();
+        if list.workers[0].state == WorkerState::Rendering {
+            break;
+        }
+        assert!(std::time::Instant::now() < deadline, "{}", farm.logs());
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    let out = spindle(&["workers", "drain", "leaving"], Some(&farm)).await;
+    assert!(out.status.success(), "{}", text(&out));
+    assert!(
+        String::from_utf8_lossy(&out.stdout).contains("draining"),
+        "{}",
+        text(&out)
+    );
+
+    let status = farm.workers[0]
+        .wait_exit(Duration::from_secs(60))
+        .await
+        .unwrap();
+    assert!(status.success(), "{status}\n{}", farm.logs());
+    let log = farm.workers[0].log();
+    assert!(log.contains("drained"), "{log}");
+    // The tile in hand was delivered and counted; nothing was taken after it.
+    let job = farm.job(id).await.unwrap();
+    let delivered = accepted_tiles(&log) as u32;
+    assert!(delivered >= 1, "{log}");
+    assert_eq!(job.tiles_done, delivered, "{}", farm.logs());
+    assert!(job.tiles_done < job.tiles_total, "{}", farm.logs());
+    assert_eq!(job.recent_errors, vec![], "{}", farm.logs());
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn jobs_are_named_listed_paused_reprioritised_fetched_by_name_and_deleted() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write_scene(dir.path(), 16, 16, 1);
+    let s = scene.to_str().unwrap();
+    let farm = Farm::start(5.0).await.unwrap();
+    let id_of = |out: &Output| -> u64 {
+        String::from_utf8_lossy(&out.stdout)
+            .trim()
+            .parse()
+            .unwrap_or_else(|_| panic!("a job id: {}", text(out)))
+    };
+
+    // No worker: the job waits, and can be paused, resumed and reprioritised.
+    let out = spindle(&["submit", s, "--submitter", "ann"], Some(&farm)).await;
+    let first = id_of(&out);
+    let out = spindle(&["pause", &first.to_string()], Some(&farm)).await;
+    assert!(
+        text(&out).contains(&format!("job {first}: paused")),
+        "{}",
+        text(&out)
+    );
+    let out = spindle(&["jobs", "--state", "paused"], Some(&farm)).await;
+    let listing = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(
+        listing.contains("scene") && listing.contains("ann"),
+        "{}",
+        text(&out)
+    );
+    let out = spindle(&["resume", &first.to_string()], Some(&farm)).await;
+    assert!(text(&out).contains("queued"), "{}", text(&out));
+    let out = spindle(&["priority", &first.to_string(), "-3"], Some(&farm)).await;
+    assert!(text(&out).contains("priority -3"), "{}", text(&out));
+    let out = spindle(&["delete", &first.to_string()], Some(&farm)).await;
+    assert!(!out.status.success(), "an unfinished job needs --force");
+    assert!(text(&out).contains("force"), "{}", text(&out));
+
+    // With a worker: --wait -o downloads the image; fetch without -o writes <name>.exr here.
+    let mut farm = farm;
+    farm.add_worker("w", 2).unwrap();
+    let waited = dir.path().join("waited.exr");
+    let out = spindle(
+        &[
+            "submit",
+            s,
+            "--name",
+            "teapot",
+            "--tile-size",
+            "8",
+            "--wait",
+            "-o",
+            waited.to_str().unwrap(),
+        ],
+        Some(&farm),
+    )
+    .await;
+    assert!(out.status.success(), "{}\n{}", text(&out), farm.logs());
+    let id = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .next()
+        .unwrap()
+        .trim()
+        .parse::<u64>()
+        .unwrap();
+    let (desc, assets) = test_scene(16, 16, 1);
+    let reference = reference_image(&desc, &assets).unwrap();
+    assert_bit_identical(&read_exr(&waited).unwrap(), &reference);
+    let here = tempfile::tempdir().unwrap();
+    let out = spindle_in(Some(here.path()), &["fetch", &id.to_string()], Some(&farm)).await;
+    assert!(out.status.success(), "{}", text(&out));
+    assert_bit_identical(
+        &read_exr(here.path().join("teapot.exr")).unwrap(),
+        &reference,
+    );
+    let out = spindle(&["jobs", "--name", "teap", "--json"], Some(&farm)).await;
+    let listed: Vec<JobInfo> = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(listed.iter().map(|j| j.id).collect::<Vec<_>>(), vec![id]);
+
+    let out = spindle(&["delete", &id.to_string()], Some(&farm)).await;
+    assert!(out.status.success(), "{}", text(&out));
+    let out = spindle(&["delete", &first.to_string(), "--force"], Some(&farm)).await;
+    assert!(out.status.success(), "{}", text(&out));
+    let out = spindle(&["jobs", "--json"], Some(&farm)).await;
+    let listed: Vec<JobInfo> = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(listed.is_empty(), "{}", text(&out));
 }

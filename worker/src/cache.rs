@@ -50,7 +50,7 @@ impl From<RetryEnd> for LoadError {
             RetryEnd::Failed(e) => match e.kind() {
                 ErrorKind::Unauthorized => LoadError::Unauthorized(e),
                 ErrorKind::Transient | ErrorKind::NotFound | ErrorKind::Conflict => LoadError::Gone,
-                ErrorKind::Rejected => LoadError::Broken(e.to_string()),
+                ErrorKind::Rejected | ErrorKind::Draining => LoadError::Broken(e.to_string()),
             },
         }
     }

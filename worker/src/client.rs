@@ -51,6 +51,8 @@ pub enum ErrorKind {
     /// 409: the lease is no longer this worker's (a newer epoch exists, or the tile is done
     /// with a different result).
     Conflict,
+    /// 410 on a lease request: the worker was told to drain; it takes no more tiles and exits.
+    Draining,
     /// Any other 4xx: the request itself is wrong; retrying the same request cannot help.
     Rejected,
 }
@@ -64,6 +66,7 @@ impl ClientError {
                 StatusCode::UNAUTHORIZED | StatusCode::FORBIDDEN => ErrorKind::Unauthorized,
                 StatusCode::NOT_FOUND => ErrorKind::NotFound,
                 StatusCode::CONFLICT => ErrorKind::Conflict,
+                StatusCode::GONE => ErrorKind::Draining,
                 StatusCode::REQUEST_TIMEOUT | StatusCode::TOO_MANY_REQUESTS => ErrorKind::Transient,
                 s if s.is_server_error() => ErrorKind::Transient,
                 _ => ErrorKind::Rejected,

@@ -1,7 +1,10 @@
 //! The worker's settings: raw values from the command line or the environment become a
 //! validated [`Config`], so the rest of the worker never sees a malformed URL or zero threads.
 
+use std::collections::BTreeMap;
 use std::time::Duration;
+
+use spindle_common::protocol::check_labels;
 
 use crate::backoff::Backoff;
 
@@ -22,6 +25,10 @@ pub struct Config {
     pub token: Option<String>,
     /// The name the worker registers under, for the coordinator's logs.
     pub name: String,
+    /// `key=value` labels jobs can require (`--label pool=night`); none by default.
+    pub labels: BTreeMap<String, String>,
+    /// The version it reports when registering.
+    pub version: String,
     /// Render threads: the size of the worker's own rayon pool.
     pub threads: usize,
     /// How long one lease request may wait at the coordinator for work.
@@ -76,11 +83,38 @@ impl Config {
             coordinator,
             token,
             name,
+            labels: BTreeMap::new(),
+            version: env!("CARGO_PKG_VERSION").to_string(),
             threads,
             lease_wait: Duration::from_secs(10),
             backoff: Backoff::default(),
             shutdown_grace: Duration::from_secs(30),
         })
+    }
+}
+
+impl Config {
+    /// Sets the worker's labels, each parsed `key=value` already; checks their count and form
+    /// and refuses a key given twice.
+    pub fn with_labels(mut self, labels: Vec<(String, String)>) -> Result<Config, ConfigError> {
+        let mut map = BTreeMap::new();
+        for (k, v) in labels {
+            if map.insert(k.clone(), v).is_some() {
+                return Err(ConfigError {
+                    field: "label",
+                    problem: format!("key {k:?} given twice"),
+                });
+            }
+        }
+        check_labels("label", &map).map_err(|problem| ConfigError {
+            field: "label",
+            problem: problem
+                .trim_start_matches("label")
+                .trim_start_matches(": ")
+                .into(),
+        })?;
+        self.labels = map;
+        Ok(self)
     }
 }
 
@@ -159,5 +193,18 @@ mod tests {
         }
         let err = Config::new("http://h:1", None, Some(String::new()), None).unwrap_err();
         assert_eq!(err.field, "name");
+        let c = Config::new("http://h:1", None, None, None).unwrap();
+        let pair = |k: &str| (k.to_string(), "x".to_string());
+        let err = c
+            .clone()
+            .with_labels(vec![pair("a"), pair("a")])
+            .unwrap_err();
+        assert_eq!(err.field, "label");
+        let err = c
+            .clone()
+            .with_labels((0..17).map(|i| pair(&format!("k{i}"))).collect());
+        assert_eq!(err.unwrap_err().field, "label");
+        let ok = c.with_labels(vec![pair("pool")]).unwrap();
+        assert_eq!(ok.labels.get("pool").map(String::as_str), Some("x"));
     }
 }

@@ -7,6 +7,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Parser;
+use spindle_common::protocol::parse_label;
 use spindle_worker::Config;
 use tokio_util::sync::CancellationToken;
 
@@ -23,6 +24,10 @@ struct Args {
     /// The name this worker registers under (default: HOSTNAME-PID).
     #[arg(long, env = "SPINDLE_WORKER_NAME")]
     name: Option<String>,
+    /// A `key=value` label jobs can require (`spindle submit --require pool=night`);
+    /// repeatable, at most 16; keys and values of letters, digits, `_ - .`, 1 to 63 bytes.
+    #[arg(long = "label", value_name = "KEY=VALUE", value_parser = parse_label)]
+    labels: Vec<(String, String)>,
     /// Read the worker token from this file instead of SPINDLE_WORKER_TOKEN.
     #[arg(long, env = "SPINDLE_WORKER_TOKEN_FILE")]
     token_file: Option<PathBuf>,
@@ -56,7 +61,8 @@ fn real_main(args: Args) -> anyhow::Result<()> {
         ),
         None => std::env::var("SPINDLE_WORKER_TOKEN").ok(),
     };
-    let config = Config::new(&args.coordinator, token, args.name, args.threads)?;
+    let config =
+        Config::new(&args.coordinator, token, args.name, args.threads)?.with_labels(args.labels)?;
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()

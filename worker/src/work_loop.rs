@@ -13,6 +13,10 @@
 //!   build, a pixel overflows f32) is reported as deterministic, which fails the job at once;
 //! - the token refused (401/403): the worker stops with an error, since no retry can fix it.
 //!
+//! Drain: when a lease request answers 410 or a heartbeat answer says `drain`, the operator has
+//! asked this worker to leave: the tile in hand is finished and delivered (no deadline), no new
+//! lease is asked for, and the worker returns `Ok` (the binary exits 0).
+//!
 //! Shutdown: once `shutdown` fires, no new lease is asked for. The tile in hand is finished and
 //! delivered, for at most `shutdown_grace` more; then the worker gives up on it (the lease
 //! lapses and another worker renders it) and returns. Rendering runs on the worker's own rayon
@@ -53,6 +57,8 @@ pub struct Summary {
     pub scenes_built: u64,
     /// Times the worker registered (more than 1: the coordinator forgot it).
     pub registrations: u64,
+    /// The coordinator told the worker to drain, and it stopped for that.
+    pub drained: bool,
 }
 
 /// One worker's state.
@@ -62,6 +68,9 @@ pub struct Worker {
     pool: Arc<rayon::ThreadPool>,
     cache: SceneCache,
     shutdown: CancellationToken,
+    /// Fires when the coordinator says the worker is draining: no new lease after the tile in
+    /// hand.
+    drain: CancellationToken,
     /// Fires `shutdown_grace` after `shutdown`: the end of the tile in hand.
     hard_stop: CancellationToken,
     worker_id: Option<u64>,
@@ -110,6 +119,7 @@ impl Worker {
             pool,
             cache,
             shutdown,
+            drain: CancellationToken::new(),
             hard_stop,
             worker_id: None,
             lease_attempts: config.backoff.attempts(u64::from(std::process::id())),
@@ -127,7 +137,7 @@ impl Worker {
             threads = self.config.threads,
             "worker starting"
         );
-        while !self.shutdown.is_cancelled() {
+        while !self.shutdown.is_cancelled() && !self.drain.is_cancelled() {
             let Some(worker_id) = self.registered().await? else {
                 break;
             };
@@ -146,6 +156,10 @@ impl Worker {
             }
         }
         self.summary.scenes_built = self.cache.builds();
+        self.summary.drained = self.drain.is_cancelled();
+        if self.summary.drained {
+            tracing::info!("drained: the coordinator asked this worker to leave");
+        }
         tracing::info!(summary = ?self.summary, "worker stopped");
         Ok(self.summary)
     }
@@ -158,6 +172,8 @@ impl Worker {
         let body = RegisterWorker {
             name: self.config.name.clone(),
             threads: u32::try_from(self.config.threads).unwrap_or(u32::MAX),
+            version: self.config.version.clone(),
+            labels: self.config.labels.clone(),
         };
         let salt = u64::from(std::process::id());
         match retry(
@@ -192,6 +208,11 @@ impl Worker {
                 Ok(())
             }
             ErrorKind::Unauthorized => Err(fatal(e, "asking for a lease")),
+            ErrorKind::Draining => {
+                tracing::info!(error = %e, "draining: no more tiles");
+                self.drain.cancel();
+                Ok(())
+            }
             ErrorKind::Transient | ErrorKind::Conflict | ErrorKind::Rejected => {
                 // Lease requests carry no data that could be wrong, so anything else is treated
                 // as the coordinator being unwell.
@@ -219,6 +240,7 @@ impl Worker {
             held,
             Duration::from_millis(lease.ttl_ms),
             stop.clone(),
+            self.drain.clone(),
         ));
         let outcome = match self.render(job, lease.rect, &stop).await {
             Ok(Rendered::Pixels(pixels)) => {
@@ -380,13 +402,15 @@ impl Worker {
 }
 
 /// Renews the lease every third of its TTL until `stop` fires; cancels `stop` when the
-/// coordinator says the lease is no longer this worker's.
+/// coordinator says the lease is no longer this worker's, and `drain` when it says the worker
+/// is draining (the tile in hand is still finished).
 async fn heartbeat_loop(
     client: Client,
     worker_id: u64,
     lease: LeaseRef,
     ttl: Duration,
     stop: CancellationToken,
+    drain: CancellationToken,
 ) {
     let LeaseRef { job, tile, epoch } = lease;
     let body = Heartbeat { worker_id, epoch };
@@ -402,6 +426,10 @@ async fn heartbeat_loop(
         };
         match result {
             Ok(ack) => {
+                if ack.drain && !drain.is_cancelled() {
+                    tracing::info!(job, tile, "draining: finishing this tile, then exiting");
+                    drain.cancel();
+                }
                 interval =
                     (Duration::from_millis(ack.ttl_ms) / 3).clamp(HEARTBEAT_MIN, HEARTBEAT_MAX)
             }

@@ -1,11 +1,15 @@
-//! The job routes clients use: submit, list, inspect, cancel, delete, and fetch the image.
+//! The job routes clients use: submit, list, inspect, pause, resume, requeue, reprioritise,
+//! cancel, delete, and fetch the image.
 
 use axum::Json;
-use axum::extract::State;
+use axum::extract::rejection::QueryRejection;
+use axum::extract::{Query, State};
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Response};
+use serde::Deserialize;
 use spindle_common::protocol::{
-    ApiError, IDEMPOTENCY_KEY_HEADER, JobInfo, JobList, JobState, SubmitJob,
+    ApiError, DEFAULT_JOB_PAGE, IDEMPOTENCY_KEY_HEADER, JobInfo, JobList, JobPatch, JobState,
+    MAX_JOB_PAGE, SubmitJob, check_labels, check_name,
 };
 use utoipa_axum::routes;
 
@@ -15,8 +19,9 @@ use crate::admission;
 use crate::assemble;
 use crate::auth::Role;
 use crate::error::Error;
+use crate::extract::JsonBody;
 use crate::extract::{ApiPath, RawBody, parse_json};
-use crate::jobs::NewJob;
+use crate::jobs::{JobFilter, NewJob};
 
 pub(super) fn routes() -> Declared {
     vec![
@@ -25,6 +30,10 @@ pub(super) fn routes() -> Declared {
         (Role::Client, routes!(get_job)),
         (Role::Client, routes!(delete_job)),
         (Role::Client, routes!(cancel_job)),
+        (Role::Client, routes!(pause_job)),
+        (Role::Client, routes!(resume_job)),
+        (Role::Client, routes!(requeue_job)),
+        (Role::Client, routes!(patch_job)),
         (Role::Client, routes!(image_exr)),
         (Role::Client, routes!(image_png)),
     ]
@@ -44,6 +53,12 @@ async fn submit_job(
 ) -> Result<(StatusCode, Json<JobInfo>), Error> {
     let key = idempotency_key(&headers)?;
     let submit: SubmitJob = parse_json(&body)?;
+    check_labels("requires", &submit.requires).map_err(Error::BadRequest)?;
+    for (field, value) in [("name", &submit.name), ("submitter", &submit.submitter)] {
+        if let Some(value) = value {
+            check_name(field, value).map_err(Error::BadRequest)?;
+        }
+    }
     let limits = &state.config().limits;
     admission::admit(&submit, limits, state.assets()).await?;
     let new = NewJob::new(submit, key)?;
@@ -73,13 +88,120 @@ fn idempotency_key(headers: &HeaderMap) -> Result<Option<String>, Error> {
     Ok(Some(key.to_string()))
 }
 
-/// Lists every job, oldest first.
-#[utoipa::path(get, path = "/v1/jobs",
-    responses((status = 200, body = JobList)))]
-async fn list_jobs(State(state): State<AppState>) -> Json<JobList> {
-    Json(JobList {
-        jobs: state.ledger().list(),
-    })
+/// The query of `GET /v1/jobs`.
+#[derive(Debug, Deserialize, utoipa::IntoParams)]
+#[into_params(parameter_in = Query)]
+#[serde(deny_unknown_fields)]
+struct ListQuery {
+    /// Only jobs in this state.
+    state: Option<String>,
+    /// Only jobs whose name contains this.
+    name: Option<String>,
+    /// Jobs per page (default 100, at most 1000).
+    limit: Option<usize>,
+    /// `next_cursor` of the previous page.
+    cursor: Option<String>,
+}
+
+/// Lists jobs, oldest first, a page at a time: pass `next_cursor` as `cursor` for the next.
+/// Pages are stable: jobs submitted meanwhile come after the ones already listed.
+#[utoipa::path(get, path = "/v1/jobs", params(ListQuery),
+    responses((status = 200, body = JobList), (status = 400, body = ApiError)))]
+async fn list_jobs(
+    State(state): State<AppState>,
+    query: Result<Query<ListQuery>, QueryRejection>,
+) -> Result<Json<JobList>, Error> {
+    let Query(query) = query.map_err(|e| Error::BadRequest(format!("query: {}", e.body_text())))?;
+    let job_state = match query.state.as_deref() {
+        None => None,
+        Some(s) => Some(JobState::parse(s).ok_or_else(|| {
+            Error::BadRequest(format!(
+                "state: {s:?} is not one of queued, running, paused, done, failed, cancelled"
+            ))
+        })?),
+    };
+    let limit = query.limit.unwrap_or(DEFAULT_JOB_PAGE);
+    if limit == 0 || limit > MAX_JOB_PAGE {
+        return Err(Error::BadRequest(format!(
+            "limit: must be 1 to {MAX_JOB_PAGE}"
+        )));
+    }
+    let after =
+        match query.cursor.as_deref() {
+            None | Some("") => None,
+            Some(c) => Some(c.parse::<u64>().map_err(|_| {
+                Error::BadRequest("cursor: not a cursor this coordinator gave".into())
+            })?),
+        };
+    let filter = JobFilter {
+        state: job_state,
+        name: query.name.filter(|n| !n.is_empty()),
+        after,
+        limit,
+    };
+    let (jobs, next_cursor) = state.ledger().list(&filter);
+    Ok(Json(JobList { jobs, next_cursor }))
+}
+
+/// Pauses a job: no new tiles are leased; tiles already leased finish and are kept.
+#[utoipa::path(post, path = "/v1/jobs/{id}/pause", params(("id" = u64, Path, description = "job id")),
+    responses((status = 200, body = JobInfo), (status = 404, body = ApiError),
+              (status = 409, body = ApiError)))]
+async fn pause_job(
+    State(state): State<AppState>,
+    ApiPath(id): ApiPath<u64>,
+) -> Result<Json<JobInfo>, Error> {
+    Ok(Json(state.ledger().pause(id)?))
+}
+
+/// Resumes a paused job.
+#[utoipa::path(post, path = "/v1/jobs/{id}/resume", params(("id" = u64, Path, description = "job id")),
+    responses((status = 200, body = JobInfo), (status = 404, body = ApiError),
+              (status = 409, body = ApiError)))]
+async fn resume_job(
+    State(state): State<AppState>,
+    ApiPath(id): ApiPath<u64>,
+) -> Result<Json<JobInfo>, Error> {
+    let info = state.ledger().resume(id)?;
+    state.work_available();
+    Ok(Json(info))
+}
+
+/// Puts a failed or cancelled job back in the queue: unfinished tiles pending again, failures
+/// forgotten, finished tiles kept. 409 for a job that is not failed or cancelled.
+#[utoipa::path(post, path = "/v1/jobs/{id}/requeue", params(("id" = u64, Path, description = "job id")),
+    responses((status = 200, body = JobInfo), (status = 404, body = ApiError),
+              (status = 409, body = ApiError), (status = 429, body = ApiError)))]
+async fn requeue_job(
+    State(state): State<AppState>,
+    ApiPath(id): ApiPath<u64>,
+) -> Result<Json<JobInfo>, Error> {
+    let max = state.config().limits.max_active_jobs;
+    let info = state.ledger().requeue(id, max)?;
+    // A job cancelled with every tile in is finished by assembly.
+    state.assemble_complete_jobs();
+    state.work_available();
+    Ok(Json(info))
+}
+
+/// Changes a job after submission: its priority.
+#[utoipa::path(patch, path = "/v1/jobs/{id}", params(("id" = u64, Path, description = "job id")),
+    request_body = JobPatch,
+    responses((status = 200, body = JobInfo), (status = 400, body = ApiError),
+              (status = 404, body = ApiError)))]
+async fn patch_job(
+    State(state): State<AppState>,
+    ApiPath(id): ApiPath<u64>,
+    JsonBody(patch): JsonBody<JobPatch>,
+) -> Result<Json<JobInfo>, Error> {
+    let Some(priority) = patch.priority else {
+        return Err(Error::BadRequest(
+            "priority: missing (nothing to change)".into(),
+        ));
+    };
+    let info = state.ledger().set_priority(id, priority)?;
+    state.work_available();
+    Ok(Json(info))
 }
 
 /// A job's state and progress.
@@ -103,14 +225,29 @@ async fn cancel_job(
     Ok(Json(state.ledger().cancel(id)?))
 }
 
-/// Deletes a job and its files.
-#[utoipa::path(delete, path = "/v1/jobs/{id}", params(("id" = u64, Path, description = "job id")),
-    responses((status = 204), (status = 404, body = ApiError)))]
+/// The query of `DELETE /v1/jobs/{id}`.
+#[derive(Debug, Default, Deserialize, utoipa::IntoParams)]
+#[into_params(parameter_in = Query)]
+#[serde(deny_unknown_fields)]
+struct DeleteQuery {
+    /// Delete a job that has not finished (it is cancelled first).
+    #[serde(default)]
+    force: bool,
+}
+
+/// Deletes a job: its tiles, image files and rows. A job that has not finished is refused
+/// (409) unless `?force=true`.
+#[utoipa::path(delete, path = "/v1/jobs/{id}",
+    params(("id" = u64, Path, description = "job id"), DeleteQuery),
+    responses((status = 204), (status = 400, body = ApiError), (status = 404, body = ApiError),
+              (status = 409, body = ApiError)))]
 async fn delete_job(
     State(state): State<AppState>,
     ApiPath(id): ApiPath<u64>,
+    query: Result<Query<DeleteQuery>, QueryRejection>,
 ) -> Result<StatusCode, Error> {
-    state.ledger().delete(id)?;
+    let Query(query) = query.map_err(|e| Error::BadRequest(format!("query: {}", e.body_text())))?;
+    state.ledger().delete(id, query.force)?;
     // The job is gone for every request from here on. An upload still writing into its
     // directory removes it again when it finds the job gone, so a failed removal (a file
     // appearing meanwhile) is logged, not answered as a failure of the delete.

@@ -6,12 +6,17 @@
 //! [`router`] registers every listed handler with `utoipa_axum`, which routes the path and
 //! documents it in one step. So the router and the document cannot disagree, and a role is
 //! written once: it selects both the bearer-token middleware and the document's security
-//! requirement. The request and response shapes are documented in `spindle_common::protocol`.
+//! requirement. Modules: `service`, `assets`, `jobs` (client job routes), `events` (the live
+//! event stream), `workers` (the
+//! operators' worker routes), `work` (the routes workers call). The request and response
+//! shapes are documented in `spindle_common::protocol`.
 
 mod assets;
+mod events;
 mod jobs;
 mod service;
 mod work;
+mod workers;
 
 use std::sync::Arc;
 
@@ -103,6 +108,8 @@ fn routes_and_document(state: &AppState) -> (Router<AppState>, utoipa::openapi::
         service::routes(),
         assets::routes(limits),
         jobs::routes(),
+        events::routes(),
+        workers::routes(),
         work::routes(limits),
     ]
     .into_iter()

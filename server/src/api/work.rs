@@ -9,7 +9,8 @@ use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
 use spindle_common::protocol::{
     ApiError, Heartbeat, HeartbeatAck, JobSpec, Lease, LeaseRequest, MAX_LEASE_WAIT_MS,
-    RegisterWorker, TileAck, TileFailure, TileOutcome, TileUpload, WorkerRegistered, pixel_hash,
+    RegisterWorker, TileAck, TileFailure, TileOutcome, TileUpload, WorkerRegistered, check_labels,
+    pixel_hash,
 };
 use tokio::time::Instant;
 use utoipa_axum::router::UtoipaMethodRouterExt;
@@ -51,9 +52,18 @@ async fn register_worker(
     if request.threads == 0 {
         return Err(Error::BadRequest("threads: must be at least 1".into()));
     }
-    let worker_id = state
-        .ledger()
-        .register_worker(&request.name, request.threads)?;
+    if request.version.len() > 64 {
+        return Err(Error::BadRequest(
+            "version: must be at most 64 bytes".into(),
+        ));
+    }
+    check_labels("labels", &request.labels).map_err(Error::BadRequest)?;
+    let worker_id = state.ledger().register_worker(
+        &request.name,
+        request.threads,
+        &request.version,
+        request.labels,
+    )?;
     Ok(Json(WorkerRegistered { worker_id }))
 }
 
@@ -62,6 +72,7 @@ async fn register_worker(
     request_body(content = Option<LeaseRequest>, description = "optional; an empty body means the defaults"),
     responses((status = 200, body = Lease), (status = 204, description = "no work right now"),
               (status = 404, body = ApiError),
+              (status = 410, body = ApiError, description = "the worker is draining: exit"),
               (status = 429, body = ApiError, description = "the worker holds --max-leases-per-worker leases (Retry-After)")))]
 async fn lease(
     State(state): State<AppState>,

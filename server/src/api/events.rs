@@ -1,0 +1,65 @@
+//! `GET /v1/events`: the live event stream (Server-Sent Events) of [`crate::events`].
+
+use std::convert::Infallible;
+use std::sync::Arc;
+
+use axum::extract::State;
+use axum::http::HeaderMap;
+use axum::response::sse::{Event, KeepAlive, Sse};
+use futures_util::stream::{self, Stream, StreamExt};
+use spindle_common::protocol::{ApiError, FarmEvent};
+use utoipa_axum::routes;
+
+use super::Declared;
+use crate::AppState;
+use crate::auth::Role;
+use crate::error::Error;
+
+pub(super) fn routes() -> Declared {
+    vec![(Role::Client, routes!(events))]
+}
+
+/// Follows the farm: job state changes, finished tiles, workers joining, draining and lost, as
+/// Server-Sent Events (`id:` the event id, `event:` its type, `data:` a `FarmEvent`). With
+/// `Last-Event-ID`, the events after it come first (or a `reset` when they are no longer
+/// kept). A client too slow to keep up is disconnected; it reconnects with its last id.
+#[utoipa::path(get, path = "/v1/events",
+    params(("Last-Event-ID" = Option<u64>, Header, description = "the last event id received")),
+    responses((status = 200, content_type = "text/event-stream", body = FarmEvent),
+              (status = 400, body = ApiError), (status = 503, body = ApiError)))]
+async fn events(
+    State(state): State<AppState>,
+    headers: HeaderMap,
+) -> Result<Sse<impl Stream<Item = Result<Event, Infallible>>>, Error> {
+    let last_id = match headers.get("last-event-id") {
+        None => None,
+        Some(v) => Some(
+            v.to_str()
+                .ok()
+                .and_then(|s| s.trim().parse::<u64>().ok())
+                .ok_or_else(|| {
+                    Error::BadRequest("Last-Event-ID: must be an event id (a number)".into())
+                })?,
+        ),
+    };
+    let sub = state.events().subscribe(last_id)?;
+    let backlog = stream::iter(sub.backlog);
+    // Ends at the first error: the subscriber lagged (dropped) or the log is gone.
+    let live = stream::unfold((sub.live, sub.slot), |(mut rx, slot)| async move {
+        rx.recv().await.ok().map(|event| (event, (rx, slot)))
+    });
+    let stop = state.shutdown_token();
+    let stream = backlog
+        .chain(live)
+        .map(|event| Ok(sse_event(&event)))
+        .take_until(async move { stop.cancelled().await });
+    Ok(Sse::new(stream).keep_alive(KeepAlive::default()))
+}
+
+fn sse_event(event: &Arc<FarmEvent>) -> Event {
+    let data = serde_json::to_string(&**event).unwrap_or_else(|_| "{}".to_string());
+    Event::default()
+        .id(event.id.to_string())
+        .event(event.kind.name())
+        .data(data)
+}

@@ -1,0 +1,196 @@
+//! Live events for operators and dashboards (`GET /v1/events`, Server-Sent Events): job state
+//! changes, finished tiles, workers joining, draining and lost.
+//!
+//! Every event gets the next id (1, 2, …). The newest [`EVENT_RING`] are kept in memory so a
+//! client reconnecting with `Last-Event-ID` gets what it missed; one whose id has left the ring
+//! gets a `reset` event instead and refetches the state. Subscribers are fed through a bounded
+//! broadcast channel ([`EVENT_CHANNEL`]): one that falls that far behind is dropped (its stream
+//! ends; it reconnects with its last id), never buffered without bound. At most
+//! [`MAX_EVENT_SUBSCRIBERS`] streams are open at once.
+
+use std::collections::VecDeque;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+
+use spindle_common::protocol::{EventKind, FarmEvent};
+use tokio::sync::broadcast;
+
+use crate::error::Error;
+use crate::jobs::now_ms;
+
+/// Events kept for reconnecting clients.
+pub const EVENT_RING: usize = 1024;
+/// Events a subscriber may fall behind before it is dropped.
+pub const EVENT_CHANNEL: usize = 256;
+/// Event streams open at once.
+pub const MAX_EVENT_SUBSCRIBERS: usize = 32;
+
+/// The event log and its subscribers.
+pub struct Events {
+    ring: Mutex<Ring>,
+    sender: broadcast::Sender<Arc<FarmEvent>>,
+    subscribers: Arc<AtomicUsize>,
+    capacity: usize,
+}
+
+struct Ring {
+    last_id: u64,
+    events: VecDeque<Arc<FarmEvent>>,
+}
+
+/// A new subscriber: the events it missed (or a `reset`), then the live ones.
+pub struct Subscription {
+    pub backlog: Vec<Arc<FarmEvent>>,
+    pub live: broadcast::Receiver<Arc<FarmEvent>>,
+    /// Counts the subscriber until dropped.
+    pub slot: SubscriberSlot,
+}
+
+/// One of the [`MAX_EVENT_SUBSCRIBERS`] places, given back on drop.
+pub struct SubscriberSlot(Arc<AtomicUsize>);
+
+impl Drop for SubscriberSlot {
+    fn drop(&mut self) {
+        self.0.fetch_sub(1, Ordering::SeqCst);
+    }
+}
+
+impl Default for Events {
+    fn default() -> Self {
+        Events::with_capacity(EVENT_RING)
+    }
+}
+
+impl Events {
+    /// An empty log keeping the newest `capacity` events.
+    pub fn with_capacity(capacity: usize) -> Events {
+        Events {
+            ring: Mutex::new(Ring {
+                last_id: 0,
+                events: VecDeque::new(),
+            }),
+            sender: broadcast::channel(EVENT_CHANNEL).0,
+            subscribers: Arc::new(AtomicUsize::new(0)),
+            capacity: capacity.max(1),
+        }
+    }
+
+    fn ring(&self) -> std::sync::MutexGuard<'_, Ring> {
+        self.ring.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Records an event and sends it to every subscriber.
+    pub fn publish(&self, kind: EventKind) {
+        let mut ring = self.ring();
+        ring.last_id += 1;
+        let event = Arc::new(FarmEvent {
+            id: ring.last_id,
+            at_ms: now_ms(),
+            kind,
+        });
+        if ring.events.len() == self.capacity {
+            ring.events.pop_front();
+        }
+        ring.events.push_back(event.clone());
+        // Sent under the ring's lock, so subscribers see ids in order and a new subscriber's
+        // backlog and live events neither overlap nor leave a gap. No subscriber: nothing to do.
+        let _ = self.sender.send(event);
+    }
+
+    /// Subscribes; `last_id` is the `Last-Event-ID` of a reconnecting client. 503 past
+    /// [`MAX_EVENT_SUBSCRIBERS`].
+    pub fn subscribe(&self, last_id: Option<u64>) -> Result<Subscription, Error> {
+        let taken = self.subscribers.fetch_add(1, Ordering::SeqCst);
+        let slot = SubscriberSlot(self.subscribers.clone());
+        if taken >= MAX_EVENT_SUBSCRIBERS {
+            return Err(Error::Unavailable(
+                "too many event streams are open; try again later",
+            ));
+        }
+        let ring = self.ring();
+        let live = self.sender.subscribe();
+        let backlog = match last_id {
+            None => Vec::new(),
+            Some(id) if id >= ring.last_id => Vec::new(),
+            Some(id) => {
+                let oldest = ring.events.front().map_or(ring.last_id + 1, |e| e.id);
+                if id + 1 < oldest {
+                    vec![Arc::new(FarmEvent {
+                        id: ring.last_id,
+                        at_ms: now_ms(),
+                        kind: EventKind::Reset,
+                    })]
+                } else {
+                    ring.events.iter().filter(|e| e.id > id).cloned().collect()
+                }
+            }
+        };
+        Ok(Subscription {
+            backlog,
+            live,
+            slot,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn joined(n: u64) -> EventKind {
+        EventKind::WorkerJoined {
+            worker_id: n,
+            worker: format!("w{n}"),
+        }
+    }
+
+    #[test]
+    fn a_reconnecting_client_gets_what_it_missed_or_a_reset() {
+        let events = Events::with_capacity(3);
+        for n in 1..=5 {
+            events.publish(joined(n));
+        }
+        // The ring holds 3, 4, 5.
+        let ids = |s: Subscription| s.backlog.iter().map(|e| e.id).collect::<Vec<_>>();
+        assert_eq!(ids(events.subscribe(Some(2)).unwrap()), vec![3, 4, 5]);
+        assert_eq!(ids(events.subscribe(Some(4)).unwrap()), vec![5]);
+        assert_eq!(ids(events.subscribe(Some(5)).unwrap()), Vec::<u64>::new());
+        assert_eq!(ids(events.subscribe(None).unwrap()), Vec::<u64>::new());
+        let reset = events.subscribe(Some(1)).unwrap();
+        assert_eq!(reset.backlog.len(), 1);
+        assert_eq!(reset.backlog[0].kind, EventKind::Reset);
+        assert_eq!(
+            reset.backlog[0].id, 5,
+            "resume after the reset from the newest id"
+        );
+    }
+
+    #[tokio::test]
+    async fn live_events_follow_in_order_and_subscribers_are_capped() {
+        let events = Events::default();
+        let mut sub = events.subscribe(None).unwrap();
+        events.publish(joined(1));
+        events.publish(joined(2));
+        assert_eq!(sub.live.recv().await.unwrap().id, 1);
+        assert_eq!(sub.live.recv().await.unwrap().id, 2);
+        let held: Vec<_> = (1..MAX_EVENT_SUBSCRIBERS)
+            .map(|_| events.subscribe(None).unwrap())
+            .collect();
+        assert!(matches!(events.subscribe(None), Err(Error::Unavailable(_))));
+        drop(held);
+        assert!(events.subscribe(None).is_ok(), "slots come back");
+    }
+
+    #[tokio::test]
+    async fn a_subscriber_that_falls_behind_is_dropped_not_buffered() {
+        let events = Events::default();
+        let mut sub = events.subscribe(None).unwrap();
+        for n in 0..(EVENT_CHANNEL as u64 + 10) {
+            events.publish(joined(n));
+        }
+        assert!(matches!(
+            sub.live.recv().await,
+            Err(broadcast::error::RecvError::Lagged(_))
+        ));
+    }
+}
