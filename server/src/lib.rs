@@ -22,6 +22,7 @@ pub mod limits;
 pub mod serve;
 pub mod throttle;
 pub mod tile_store;
+pub mod tls;
 
 use std::future::Future;
 use std::sync::{Arc, Mutex, MutexGuard};
