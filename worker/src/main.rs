@@ -62,7 +62,9 @@ fn real_main(args: Args) -> anyhow::Result<()> {
     };
     let mut config = Config::new(&args.coordinator, token, args.name, args.threads)?;
     // Read the CA file now, so a bad one stops the worker at once with its name.
-    drop(spindle_worker::tls::client_builder(args.ca_cert.as_deref())?);
+    drop(spindle_worker::tls::client_builder(
+        args.ca_cert.as_deref(),
+    )?);
     config.ca_cert = args.ca_cert;
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
