@@ -41,15 +41,30 @@ pub struct Api {
 }
 
 impl Api {
-    /// `base` is `http://host:port`; `token` is `SPINDLE_TOKEN`.
+    /// `base` is `http(s)://host:port`; `token` is `SPINDLE_TOKEN`; https trusts the system's
+    /// roots.
     pub fn new(base: &str, token: Option<String>) -> Result<Api> {
-        let url = reqwest::Url::parse(base)
-            .map_err(|e| anyhow!("--server {base}: not a URL ({e}); expected http://HOST:PORT"))?;
-        if url.scheme() != "http" || url.host_str().is_none_or(str::is_empty) {
-            return Err(anyhow!("--server {base}: expected http://HOST:PORT"));
+        Api::with_ca_cert(base, token, None)
+    }
+
+    /// [`Api::new`], trusting only the CA certificates of the PEM file `ca_cert` if given
+    /// (`--ca-cert`; see `spindle_worker::tls`).
+    pub fn with_ca_cert(
+        base: &str,
+        token: Option<String>,
+        ca_cert: Option<&std::path::Path>,
+    ) -> Result<Api> {
+        let url = reqwest::Url::parse(base).map_err(|e| {
+            anyhow!(
+                "--server {base}: not a URL ({e}); expected https://HOST:PORT or http://HOST:PORT"
+            )
+        })?;
+        if !matches!(url.scheme(), "http" | "https") || url.host_str().is_none_or(str::is_empty) {
+            return Err(anyhow!(
+                "--server {base}: expected https://HOST:PORT or http://HOST:PORT"
+            ));
         }
-        let http = reqwest::Client::builder()
-            .no_proxy()
+        let http = spindle_worker::tls::client_builder(ca_cert)?
             .connect_timeout(Duration::from_secs(5))
             .timeout(REQUEST_TIMEOUT)
             .build()
@@ -243,8 +258,13 @@ impl Api {
                     anyhow::Error::from(err)
                 }
                 Err(e) => {
+                    let hint = spindle_worker::tls::explain(&e);
                     let err = anyhow::Error::from(e)
                         .context(format!("cannot reach the coordinator at {}", self.base));
+                    if let Some(hint) = hint {
+                        // Retrying cannot change the certificate.
+                        return Err(err.context(hint));
+                    }
                     if tries >= TRIES {
                         return Err(err);
                     }

@@ -34,6 +34,10 @@ struct Cli {
         default_value = "http://127.0.0.1:7878"
     )]
     server: String,
+    /// PEM file of the CA certificates that signed an https coordinator's certificate (a
+    /// private CA); without it https trusts the system's roots.
+    #[arg(long, global = true, env = "SPINDLE_CA_CERT")]
+    ca_cert: Option<std::path::PathBuf>,
     #[command(subcommand)]
     command: Command,
 }
@@ -97,7 +101,10 @@ fn main() -> ExitCode {
 }
 
 async fn run(cli: Cli) -> anyhow::Result<()> {
-    let api = || api::Api::new(&cli.server, std::env::var("SPINDLE_TOKEN").ok());
+    let api = || {
+        let token = std::env::var("SPINDLE_TOKEN").ok();
+        api::Api::with_ca_cert(&cli.server, token, cli.ca_cert.as_deref())
+    };
     match &cli.command {
         Command::Render(args) => render::run(args).await,
         Command::Submit(args) => submit::run(&api()?, args).await,

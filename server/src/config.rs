@@ -12,6 +12,7 @@ use std::time::Duration;
 use anyhow::{Context, bail};
 
 use crate::limits::Limits;
+use crate::tls::TlsFiles;
 
 /// `spindle-server`: the coordinator of a spindle render farm.
 #[derive(Debug, Clone, clap::Parser)]
@@ -66,6 +67,17 @@ pub struct Args {
     /// Leases one worker may hold at once; a lease request past it gets 429 with Retry-After.
     #[arg(long, env = "SPINDLE_MAX_LEASES_PER_WORKER", default_value_t = DEFAULT_MAX_LEASES_PER_WORKER)]
     pub max_leases_per_worker: usize,
+    /// PEM certificate chain (the server's own first): serve HTTPS. Needs --tls-key. SIGHUP
+    /// re-reads both files.
+    #[arg(long, env = "SPINDLE_TLS_CERT")]
+    pub tls_cert: Option<PathBuf>,
+    /// PEM private key of the --tls-cert certificate.
+    #[arg(long, env = "SPINDLE_TLS_KEY")]
+    pub tls_key: Option<PathBuf>,
+    /// Serve plain HTTP on a non-loopback address: only behind a TLS-terminating proxy or
+    /// ingress, since tokens and tiles would otherwise cross the network unencrypted.
+    #[arg(long, env = "SPINDLE_ALLOW_PLAIN_HTTP")]
+    pub allow_plain_http: bool,
     /// The token flags whose value came from the command line (see [`Args::from_process`]).
     #[arg(skip)]
     pub tokens_in_argv: Vec<&'static str>,
@@ -132,6 +144,10 @@ pub struct Config {
     pub client_rate_per_s: std::num::NonZeroU32,
     /// Leases one worker may hold at once.
     pub max_leases_per_worker: usize,
+    /// Serve HTTPS with these files; `None` serves plain HTTP.
+    pub tls: Option<TlsFiles>,
+    /// Plain HTTP on a non-loopback address was asked for (a TLS-terminating proxy in front).
+    pub allow_plain_http: bool,
 }
 
 impl Config {
@@ -149,11 +165,14 @@ impl Config {
             client_rate_per_s: std::num::NonZeroU32::new(DEFAULT_CLIENT_RATE_PER_S)
                 .expect("a positive default"),
             max_leases_per_worker: DEFAULT_MAX_LEASES_PER_WORKER,
+            tls: None,
+            allow_plain_http: false,
         }
     }
 
-    /// Refuses equal client and worker tokens, and a non-loopback address without both tokens
-    /// or with a token shorter than [`MIN_TOKEN_BYTES`].
+    /// Refuses equal client and worker tokens, and a non-loopback address without both tokens,
+    /// with a token shorter than [`MIN_TOKEN_BYTES`], or without TLS unless plain HTTP was
+    /// asked for.
     pub fn check_listen_address(&self, addr: SocketAddr) -> anyhow::Result<()> {
         if let (Some(client), Some(worker)) = (&self.client_token, &self.worker_token)
             && client == worker
@@ -180,6 +199,13 @@ impl Config {
                     token.len()
                 );
             }
+        }
+        if self.tls.is_none() && !self.allow_plain_http {
+            bail!(
+                "refusing plain HTTP on {addr}: tokens and tiles would cross the network \
+                 unencrypted; give --tls-cert and --tls-key (SPINDLE_TLS_CERT, SPINDLE_TLS_KEY), \
+                 or --allow-plain-http when a TLS-terminating proxy or ingress is in front"
+            );
         }
         Ok(())
     }
@@ -255,6 +281,8 @@ impl Args {
             max_connections: self.max_connections,
             client_rate_per_s,
             max_leases_per_worker: self.max_leases_per_worker,
+            tls: crate::tls::files(self.tls_cert, self.tls_key)?,
+            allow_plain_http: self.allow_plain_http,
         };
         config.check_listen_address(self.listen)?;
         Ok(config)
@@ -325,9 +353,32 @@ mod tests {
             CLIENT,
             "--worker-token",
             WORKER,
+            "--allow-plain-http",
         ])
         .unwrap();
         assert_eq!(ok.client_token.as_deref(), Some(CLIENT));
+    }
+
+    #[test]
+    fn non_loopback_plain_http_needs_to_be_asked_for() {
+        let tokens = ["--token", CLIENT, "--worker-token", WORKER];
+        let mut argv = vec!["--listen", "0.0.0.0:1"];
+        argv.extend(tokens);
+        let err = parse(&argv).unwrap_err().to_string();
+        assert!(err.contains("refusing plain HTTP on 0.0.0.0:1"), "{err}");
+        assert!(
+            err.contains("--tls-cert") && err.contains("--allow-plain-http"),
+            "{err}"
+        );
+        let tls = ["--tls-cert", "/c.pem", "--tls-key", "/k.pem"];
+        let with_tls = parse(&[argv.clone(), tls.to_vec()].concat()).unwrap();
+        assert_eq!(with_tls.tls.unwrap().cert, PathBuf::from("/c.pem"));
+        argv.push("--allow-plain-http");
+        assert!(parse(&argv).is_ok());
+        // Loopback needs neither.
+        assert!(parse(&tokens).is_ok());
+        let err = parse(&["--tls-cert", "/c.pem"]).unwrap_err().to_string();
+        assert!(err.contains("--tls-cert needs --tls-key"), "{err}");
     }
 
     #[test]

@@ -172,6 +172,7 @@ impl Ledger {
                 // The worker is kept: its late result is still welcome until the tile is
                 // leased again.
                 job.tiles[index as usize].status = TileStatus::Pending;
+                crate::metrics::lease_expired();
                 tracing::info!(
                     job = job.id,
                     tile = index,
@@ -350,6 +351,7 @@ impl Ledger {
             if *hash == upload.hash {
                 return Ok(UploadPlan::Duplicate);
             }
+            crate::metrics::determinism_fault();
             tracing::error!(
                 job = id,
                 tile = index,

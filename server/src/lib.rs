@@ -20,9 +20,11 @@ pub mod extract;
 pub mod jobs;
 pub mod lease;
 pub mod limits;
+pub mod metrics;
 pub mod serve;
 pub mod throttle;
 pub mod tile_store;
+pub mod tls;
 
 use std::future::Future;
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -62,6 +64,8 @@ impl AppState {
     /// Opens (or creates) the data directory and the database, resumes every job found there,
     /// and finishes any assembly a previous process did not. Needs a Tokio runtime.
     pub async fn open(config: Config) -> anyhow::Result<AppState> {
+        // Counters count from the start, not from the first scrape.
+        metrics::handle();
         let data = config.data_dir.clone();
         let lease_ttl = config.lease_ttl;
         let grace = config.restart_grace;

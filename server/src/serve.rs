@@ -3,6 +3,8 @@
 //! A client that connects and then sends nothing, or a byte at a time, must not be able to keep
 //! a connection (and its file descriptor) for long, nor to use up the descriptors that other
 //! requests, the database and the tile files need. So, per connection:
+//! - with TLS ([`crate::tls`]), the handshake must finish within the header deadline too, so a
+//!   client that connects and stays silent holds its slot no longer than over plain HTTP;
 //! - hyper's HTTP/1 header-read deadline ([`crate::Timeouts::header`]) bounds the request line and
 //!   headers, and the wait of an idle keep-alive connection for its next request; past it the
 //!   connection is closed (there is no request to answer);
@@ -30,6 +32,7 @@ use tokio::sync::Semaphore;
 use tower_http::add_extension::AddExtension;
 
 use crate::config::Config;
+use crate::tls;
 
 /// Descriptors kept for everything but client connections: the database and its journal, asset
 /// and tile files being written, the log, the listener.
@@ -87,6 +90,16 @@ pub async fn serve(
         request_timeout_ms = config.timeouts.request.as_millis() as u64,
         "connection limits"
     );
+    let tls = match &config.tls {
+        Some(files) => {
+            let cert = Arc::new(tls::ReloadableCert::open(files.clone())?);
+            let reloader = tokio::spawn(tls::reload_on_sighup(cert.clone()));
+            tracing::info!(cert = %files.cert.display(), "serving HTTPS (SIGHUP re-reads the certificate)");
+            Some((tls::acceptor(cert)?, reloader.abort_handle()))
+        }
+        None => None,
+    };
+    let header_timeout = config.timeouts.header;
     let slots = Arc::new(Semaphore::new(max_connections));
     let mut http = hyper::server::conn::http1::Builder::new();
     http.timer(TokioTimer::new())
@@ -126,15 +139,38 @@ pub async fn serve(
             router.clone(),
             ConnectInfo::<SocketAddr>(peer),
         ));
-        let connection = graceful.watch(http.serve_connection(TokioIo::new(stream), service));
+        let Some((acceptor, _)) = &tls else {
+            let connection = graceful.watch(http.serve_connection(TokioIo::new(stream), service));
+            tokio::spawn(async move {
+                if let Err(e) = connection.await {
+                    tracing::debug!(%peer, error = %e, "connection ended with an error");
+                }
+                drop(permit);
+            });
+            continue;
+        };
+        let handshake = acceptor.accept(stream);
+        let (http, watcher) = (http.clone(), graceful.watcher());
         tokio::spawn(async move {
-            if let Err(e) = connection.await {
-                tracing::debug!(%peer, error = %e, "connection ended with an error");
+            match tokio::time::timeout(header_timeout, handshake).await {
+                Ok(Ok(stream)) => {
+                    let connection = http.serve_connection(TokioIo::new(stream), service);
+                    if let Err(e) = watcher.watch(connection).await {
+                        tracing::debug!(%peer, error = %e, "connection ended with an error");
+                    }
+                }
+                Ok(Err(e)) => tracing::debug!(%peer, error = %e, "TLS handshake failed"),
+                Err(_) => {
+                    tracing::debug!(%peer, "TLS handshake not finished within the header deadline")
+                }
             }
             drop(permit);
         });
     }
     drop(listener);
+    if let Some((_, reloader)) = &tls {
+        reloader.abort();
+    }
     tracing::info!("shutting down");
     tokio::select! {
         () = graceful.shutdown() => {}

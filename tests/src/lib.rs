@@ -144,6 +144,55 @@ impl Drop for Proc {
     }
 }
 
+/// A throwaway certificate authority and a server certificate it signed for `localhost` and
+/// 127.0.0.1, as PEM files.
+pub struct TestCa {
+    pub ca_cert: PathBuf,
+    pub server_cert: PathBuf,
+    pub server_key: PathBuf,
+    /// The CA's certificate, DER, for this process's own client.
+    pub ca_der: Vec<u8>,
+}
+
+impl TestCa {
+    /// Makes the CA and the server certificate, writing the files into `dir`.
+    pub fn create(dir: &Path) -> Result<TestCa> {
+        let ca_key = rcgen::KeyPair::generate()?;
+        let mut ca_params = rcgen::CertificateParams::new(Vec::<String>::new())?;
+        ca_params.is_ca = rcgen::IsCa::Ca(rcgen::BasicConstraints::Unconstrained);
+        ca_params
+            .distinguished_name
+            .push(rcgen::DnType::CommonName, "spindle test CA");
+        let ca = rcgen::CertifiedIssuer::self_signed(ca_params, ca_key)?;
+        let server_key = rcgen::KeyPair::generate()?;
+        let server =
+            rcgen::CertificateParams::new(vec!["localhost".to_string(), "127.0.0.1".to_string()])?
+                .signed_by(&server_key, &ca)?;
+        let files = TestCa {
+            ca_cert: dir.join("ca.pem"),
+            server_cert: dir.join("server.pem"),
+            server_key: dir.join("server-key.pem"),
+            ca_der: ca.der().to_vec(),
+        };
+        std::fs::write(&files.ca_cert, ca.pem())?;
+        std::fs::write(&files.server_cert, server.pem())?;
+        std::fs::write(&files.server_key, server_key.serialize_pem())?;
+        Ok(files)
+    }
+
+    /// A reqwest client builder that trusts only this CA.
+    pub fn client_builder(&self) -> Result<reqwest::ClientBuilder> {
+        let mut roots = rustls::RootCertStore::empty();
+        roots.add(self.ca_der.clone().into())?;
+        let provider = std::sync::Arc::new(rustls::crypto::ring::default_provider());
+        let config = rustls::ClientConfig::builder_with_provider(provider)
+            .with_safe_default_protocol_versions()?
+            .with_root_certificates(roots)
+            .with_no_client_auth();
+        Ok(reqwest::Client::builder().tls_backend_preconfigured(config))
+    }
+}
+
 /// A coordinator and its workers on loopback, with their own tokens and data directory.
 pub struct Farm {
     pub dir: tempfile::TempDir,
@@ -154,17 +203,35 @@ pub struct Farm {
     pub server: Option<Proc>,
     pub workers: Vec<Proc>,
     pub http: reqwest::Client,
+    /// Set: the coordinator serves HTTPS with this CA's certificate, and workers trust it.
+    pub tls: Option<TestCa>,
 }
 
 impl Farm {
     /// Starts a coordinator whose leases last `lease_ttl_s` without a heartbeat.
     pub async fn start(lease_ttl_s: f64) -> Result<Farm> {
-        let http = reqwest::Client::builder()
+        Farm::start_with(lease_ttl_s, false).await
+    }
+
+    /// [`Farm::start`], serving HTTPS with a certificate of a throwaway CA when `tls`.
+    pub async fn start_with(lease_ttl_s: f64, tls: bool) -> Result<Farm> {
+        let dir = tempfile::tempdir()?;
+        let tls = if tls {
+            Some(TestCa::create(dir.path())?)
+        } else {
+            None
+        };
+        let builder = match &tls {
+            Some(ca) => ca.client_builder()?,
+            None => reqwest::Client::builder(),
+        };
+        let http = builder
             .no_proxy()
             .timeout(Duration::from_secs(30))
             .build()?;
         let mut farm = Farm {
-            dir: tempfile::tempdir()?,
+            tls,
+            dir,
             port: free_port(),
             client_token: format!("client-{}", std::process::id()),
             worker_token: format!("worker-{}", std::process::id()),
@@ -177,9 +244,12 @@ impl Farm {
         Ok(farm)
     }
 
-    /// `http://127.0.0.1:PORT`.
+    /// `http://127.0.0.1:PORT`, or `https://localhost:PORT` with TLS.
     pub fn base(&self) -> String {
-        format!("http://127.0.0.1:{}", self.port)
+        match self.tls {
+            Some(_) => format!("https://localhost:{}", self.port),
+            None => format!("http://127.0.0.1:{}", self.port),
+        }
     }
 
     pub fn url(&self, path: &str) -> String {
@@ -196,6 +266,12 @@ impl Farm {
             .arg(self.dir.path().join("data"))
             .arg("--lease-ttl-s")
             .arg(self.lease_ttl_s.to_string());
+        if let Some(ca) = &self.tls {
+            cmd.arg("--tls-cert")
+                .arg(&ca.server_cert)
+                .arg("--tls-key")
+                .arg(&ca.server_key);
+        }
         // Tokens through the environment, as in a deployment.
         let env = [
             ("SPINDLE_TOKEN", self.client_token.as_str()),
@@ -245,6 +321,9 @@ impl Farm {
             .arg("--name")
             .arg(name)
             .args(args);
+        if let Some(ca) = &self.tls {
+            cmd.arg("--ca-cert").arg(&ca.ca_cert);
+        }
         let env = [("SPINDLE_WORKER_TOKEN", self.worker_token.as_str())];
         let proc = Proc::spawn(cmd, &env, self.dir.path(), name)?;
         self.workers.push(proc);

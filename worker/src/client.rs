@@ -1,8 +1,8 @@
 //! The worker's side of the coordinator's HTTP API: one method per worker route, typed with
 //! `spindle_common::protocol`, nothing else.
 //!
-//! It knows the coordinator's address and the worker token, talks plain HTTP without any
-//! system proxy (farm traffic is machine-to-machine), and bounds every request with a
+//! It knows the coordinator's address and the worker token, talks HTTP or HTTPS (trusting the
+//! roots of [`crate::tls`]) without any system proxy (farm traffic is machine-to-machine), and bounds every request with a
 //! timeout so a coordinator that vanishes mid-request cannot stall the worker. It does not
 //! retry: deciding what to do about a failure (wait and retry, re-register, drop the tile) is
 //! the caller's business, helped by [`ClientError::kind`].
@@ -81,7 +81,11 @@ impl From<reqwest::Error> for ClientError {
             ClientError::Garbled(e.to_string())
         } else {
             // Connect, timeout, request and body errors all mean "no usable answer".
-            ClientError::Unreachable(error_chain(&e))
+            let chain = error_chain(&e);
+            match crate::tls::explain(&e) {
+                Some(hint) => ClientError::Unreachable(format!("{chain} ({hint})")),
+                None => ClientError::Unreachable(chain),
+            }
         }
     }
 }
@@ -108,11 +112,21 @@ pub struct Client {
 }
 
 impl Client {
-    /// A client for the coordinator at `base` (an `http://host:port` URL, already validated by
-    /// [`crate::Config`]), authenticating with the worker token if there is one.
+    /// A client for the coordinator at `base` (an `http(s)://host:port` URL, already validated
+    /// by [`crate::Config`]), authenticating with the worker token if there is one; https
+    /// trusts the system's roots.
     pub fn new(base: &str, token: Option<String>) -> Result<Client, ClientError> {
-        let http = reqwest::Client::builder()
-            .no_proxy()
+        Client::with_ca_cert(base, token, None)
+    }
+
+    /// [`Client::new`], trusting only the CA certificates of the PEM file `ca_cert` if given.
+    pub fn with_ca_cert(
+        base: &str,
+        token: Option<String>,
+        ca_cert: Option<&std::path::Path>,
+    ) -> Result<Client, ClientError> {
+        let http = crate::tls::client_builder(ca_cert)
+            .map_err(|e| ClientError::Unreachable(format!("{e:#}")))?
             .connect_timeout(CONNECT_TIMEOUT)
             .timeout(REQUEST_TIMEOUT)
             .build()

@@ -19,8 +19,11 @@ pub struct ConfigError {
 /// Everything [`crate::run`] needs.
 #[derive(Debug, Clone)]
 pub struct Config {
-    /// The coordinator's base URL, `http://host:port` (no trailing slash).
+    /// The coordinator's base URL, `http(s)://host:port` (no trailing slash).
     pub coordinator: String,
+    /// PEM file of the CA certificates to trust for an https coordinator instead of the
+    /// system's (`--ca-cert`, see [`crate::tls`]).
+    pub ca_cert: Option<std::path::PathBuf>,
     /// The worker token (`SPINDLE_WORKER_TOKEN`); `None` for a coordinator without tokens.
     pub token: Option<String>,
     /// The name the worker registers under, for the coordinator's logs.
@@ -81,6 +84,7 @@ impl Config {
         };
         Ok(Config {
             coordinator,
+            ca_cert: None,
             token,
             name,
             labels: BTreeMap::new(),
@@ -118,8 +122,7 @@ impl Config {
     }
 }
 
-/// Accepts `http://host[:port][/]`; https needs a TLS stack the worker is built without (put
-/// the coordinator behind a private network or a tunnel, see `deploy/README.md`).
+/// Accepts `http://host[:port][/]` and `https://host[:port][/]`.
 fn validate_url(raw: &str) -> Result<String, ConfigError> {
     let bad = |problem: String| ConfigError {
         field: "coordinator",
@@ -130,9 +133,9 @@ fn validate_url(raw: &str) -> Result<String, ConfigError> {
             "`{raw}` is not a URL ({e}); expected http://HOST:PORT"
         ))
     })?;
-    if url.scheme() != "http" {
+    if !matches!(url.scheme(), "http" | "https") {
         return Err(bad(format!(
-            "scheme `{}` is not supported; expected http://HOST:PORT",
+            "scheme `{}` is not supported; expected https://HOST:PORT or http://HOST:PORT",
             url.scheme()
         )));
     }
@@ -174,6 +177,8 @@ mod tests {
         assert_eq!(c.token.as_deref(), Some("t"));
         assert!(c.threads >= 1);
         assert!(!c.name.is_empty());
+        let c = Config::new("https://farm.example:7878/", None, None, None).unwrap();
+        assert_eq!(c.coordinator, "https://farm.example:7878");
     }
 
     #[test]
@@ -181,7 +186,6 @@ mod tests {
         for (url, token, threads, field) in [
             ("127.0.0.1:7878", None, None, "coordinator"),
             ("ftp://host:1", None, None, "coordinator"),
-            ("https://host:1", None, None, "coordinator"),
             ("http://host:1/?x=1", None, None, "coordinator"),
             ("not a url", None, None, "coordinator"),
             ("http://host:1", Some("  "), None, "token"),

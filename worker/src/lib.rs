@@ -12,6 +12,7 @@ pub mod cache;
 pub mod client;
 pub mod config;
 pub mod lease_ref;
+pub mod tls;
 pub mod upload;
 pub mod work_loop;
 

@@ -15,7 +15,7 @@ use tokio_util::sync::CancellationToken;
 #[derive(Debug, Parser)]
 #[command(name = "spindle-worker", version, about)]
 struct Args {
-    /// The coordinator's URL, e.g. http://10.0.0.5:7878.
+    /// The coordinator's URL, e.g. https://farm.example:7878 (or http:// on a private network).
     #[arg(long, env = "SPINDLE_COORDINATOR")]
     coordinator: String,
     /// Render threads (default: every core).
@@ -28,6 +28,10 @@ struct Args {
     /// repeatable, at most 16; keys and values of letters, digits, `_ - .`, 1 to 63 bytes.
     #[arg(long = "label", value_name = "KEY=VALUE", value_parser = parse_label)]
     labels: Vec<(String, String)>,
+    /// PEM file of the CA certificates that signed the coordinator's certificate (a private
+    /// CA); without it https trusts the system's roots.
+    #[arg(long, env = "SPINDLE_CA_CERT")]
+    ca_cert: Option<PathBuf>,
     /// Read the worker token from this file instead of SPINDLE_WORKER_TOKEN.
     #[arg(long, env = "SPINDLE_WORKER_TOKEN_FILE")]
     token_file: Option<PathBuf>,
@@ -61,8 +65,13 @@ fn real_main(args: Args) -> anyhow::Result<()> {
         ),
         None => std::env::var("SPINDLE_WORKER_TOKEN").ok(),
     };
-    let config =
+    let mut config =
         Config::new(&args.coordinator, token, args.name, args.threads)?.with_labels(args.labels)?;
+    // Read the CA file now, so a bad one stops the worker at once with its name.
+    drop(spindle_worker::tls::client_builder(
+        args.ca_cert.as_deref(),
+    )?);
+    config.ca_cert = args.ca_cert;
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()

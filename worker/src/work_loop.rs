@@ -101,7 +101,11 @@ impl Worker {
                 .build()
                 .context("starting the render threads")?,
         );
-        let client = Client::new(&config.coordinator, config.token.clone())?;
+        let client = Client::with_ca_cert(
+            &config.coordinator,
+            config.token.clone(),
+            config.ca_cert.as_deref(),
+        )?;
         let cache = SceneCache::new(client.clone(), pool.clone(), config.backoff);
         let hard_stop = CancellationToken::new();
         {

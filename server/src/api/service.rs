@@ -17,6 +17,7 @@ pub(super) fn routes() -> Declared {
         (Role::Public, routes!(healthz)),
         (Role::Public, routes!(readyz)),
         (Role::Public, routes!(openapi_json)),
+        (Role::Public, routes!(crate::metrics::metrics)),
     ]
 }
 

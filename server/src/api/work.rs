@@ -107,6 +107,7 @@ async fn lease(
             )
         };
         if let Some(lease) = lease {
+            crate::metrics::lease_granted(&lease);
             return Ok(Json(lease).into_response());
         }
         if Instant::now() >= deadline || state.is_shutting_down() {
@@ -188,6 +189,7 @@ async fn upload_tile(
     ApiPath((job, tile)): ApiPath<(u64, u32)>,
     RawBody(body): RawBody,
 ) -> Result<Json<TileAck>, Error> {
+    crate::metrics::upload_received(body.len());
     // Parsing and hashing up to megabytes of floats is CPU work: off the runtime.
     let upload = tokio::task::spawn_blocking(move || {
         let upload: TileUpload = parse_json(&body)?;
@@ -241,6 +243,7 @@ async fn upload_tile(
         }
         Err(e) => return Err(e),
     };
+    crate::metrics::tile_stored(job, tile, upload.epoch, outcome);
     if complete {
         state.assemble_complete_jobs();
     }
@@ -275,6 +278,7 @@ async fn fail_tile(
     state
         .ledger()
         .fail_tile(job, tile, &failure, Instant::now())?;
+    crate::metrics::tile_failed();
     state.work_available();
     Ok(StatusCode::NO_CONTENT)
 }
