@@ -193,6 +193,15 @@ impl TestCa {
     }
 }
 
+/// A client builder for plain-HTTP test clients. reqwest is built without a default TLS
+/// provider (the programs configure ring themselves), and a builder without one refuses to
+/// build, so the process default is set to ring first.
+pub fn http_builder() -> reqwest::ClientBuilder {
+    // Err only when a provider is installed already, which is as good.
+    let _ = rustls::crypto::ring::default_provider().install_default();
+    reqwest::Client::builder()
+}
+
 /// A coordinator and its workers on loopback, with their own tokens and data directory.
 pub struct Farm {
     pub dir: tempfile::TempDir,
@@ -223,7 +232,7 @@ impl Farm {
         };
         let builder = match &tls {
             Some(ca) => ca.client_builder()?,
-            None => reqwest::Client::builder(),
+            None => http_builder(),
         };
         let http = builder
             .no_proxy()

@@ -147,7 +147,7 @@ async fn bad_requests_get_the_right_4xx_and_leave_jobs_alone() {
         // and closes the connection, so this goes on a connection of its own rather than one
         // the shared client would try to reuse.
         let padding = "x".repeat(5 << 20);
-        let once = reqwest::Client::builder()
+        let once = spindle_tests::http_builder()
             .no_proxy()
             .pool_max_idle_per_host(0)
             .build()
