@@ -87,6 +87,15 @@ pub enum Light {
         #[serde(default)]
         angular_diameter: f64,
     },
+    /// A one-sided rectangular area light of uniform `radiance`: the rectangle with corners
+    /// `corner`, `corner + edge_u`, `corner + edge_u + edge_v`, `corner + edge_v` (the two edges
+    /// perpendicular), emitting toward `edge_u × edge_v` only.
+    Quad {
+        corner: Vec3,
+        edge_u: Vec3,
+        edge_v: Vec3,
+        radiance: Rgb,
+    },
 }
 
 /// One object: a shape, placed by a transform, made of a material.

@@ -205,6 +205,53 @@ fn check_light(path: &str, light: &Light) -> Check {
             }
             Ok(())
         }
+        Light::Quad {
+            corner,
+            edge_u,
+            edge_v,
+            radiance,
+        } => {
+            check_point(&format!("{path}.corner"), corner)?;
+            let (u_path, v_path) = (format!("{path}.edge_u"), format!("{path}.edge_v"));
+            check_edge(&u_path, edge_u)?;
+            check_edge(&v_path, edge_v)?;
+            // |cos| of the angle between the edges, on copies scaled to O(1).
+            let (u, v) = (unit_scaled(*edge_u), unit_scaled(*edge_v));
+            let cos = dot(u, v) / (dot(u, u) * dot(v, v)).sqrt();
+            if cos.abs() > MAX_QUAD_EDGE_COS {
+                return Err(SceneError::new(
+                    v_path,
+                    format!(
+                        "must be perpendicular to {u_path} (the light is a rectangle), but the \
+                         angle between them is {:.6}°",
+                        cos.clamp(-1.0, 1.0).acos().to_degrees()
+                    ),
+                ));
+            }
+            check_point(
+                &format!("{path}.corner + edge_u + edge_v"),
+                &[0, 1, 2].map(|i| corner[i] + edge_u[i] + edge_v[i]),
+            )?;
+            check_rgb_at_least(&format!("{path}.radiance"), radiance, 0.0)
+        }
+    }
+}
+
+/// How far from perpendicular a quad light's edges may be (|cos| of their angle, about 0.00006°):
+/// enough for edges written with rounded decimals; the renderer makes them exactly perpendicular.
+pub const MAX_QUAD_EDGE_COS: f64 = 1e-6;
+
+/// An edge of a quad light: a length in [[`MIN_LENGTH`], [`MAX_COORDINATE`]].
+fn check_edge(path: &str, v: &Vec3) -> Check {
+    check_vec3(path, v)?;
+    let length = dot(*v, *v).sqrt();
+    if (MIN_LENGTH..=MAX_COORDINATE).contains(&length) {
+        Ok(())
+    } else {
+        Err(SceneError::new(
+            path,
+            format!("its length must be between {MIN_LENGTH:e} and {MAX_COORDINATE:e}, got {length}"),
+        ))
     }
 }
 

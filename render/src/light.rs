@@ -1,16 +1,18 @@
-//! Light sources: isotropic point lights, spherical area lights and distant (directional)
-//! lights.
+//! Light sources: isotropic point lights, spherical and rectangular (quad) area lights, and
+//! distant (directional) lights.
 //!
 //! A directional light — the sun — is parallel rays, or a small disk of directions. Where the
 //! single-scattering solve needs a light *point*, it gets one [`FAR`] scene radii away against
 //! the rays, whose irradiance is made exact at every receiver (`LightPoint::Distant`): the only
 //! approximation left is that rays from that point spread by at most `1/FAR` radians.
 //!
-//! Lights live outside every medium, in air (a point or sphere light may also sit inside one). A sphere light is seen by camera paths (directly,
-//! in reflection and in transmission) through [`Light::intersect`], and lights diffuse surfaces
-//! through [`Light::sample_incident`] (uniform over the cone the sphere subtends, which has no
-//! wasted samples on its far side). [`Light::sample_area`] samples a sphere by area, for
-//! integrators that need a point and a normal on the light.
+//! Lights live in the air, or inside one medium (a point, sphere or quad light). Area lights are
+//! seen by camera paths (directly, in reflection and in transmission) through
+//! [`Light::intersect`], and light diffuse surfaces through [`Light::sample_incident`]: a sphere
+//! uniformly over the cone it subtends, a quad uniformly over its spherical rectangle
+//! ([`rectangle`]) — both by solid angle, so no sample is wasted on a side the receiver cannot
+//! see. [`Light::sample_area`] samples an area light by area, for integrators that need a point
+//! and a normal on the light.
 
 use glam::DVec3;
 use spindle_common::scene as desc;
@@ -18,6 +20,10 @@ use spindle_common::validate::MAX_ANGULAR_DIAMETER;
 
 use crate::Rgb;
 use crate::ray::Ray;
+
+pub mod rectangle;
+
+use rectangle::SphericalRectangle;
 
 /// A light source.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -40,6 +46,15 @@ pub enum Light {
         cos_half_angle: f64,
         anchor: DVec3,
         distance: f64,
+    },
+    /// A one-sided rectangle `corner + s·edge_u + t·edge_v` (`s, t ∈ [0, 1]`; the edges exactly
+    /// perpendicular) emitting `radiance` toward the unit `normal = edge_u × edge_v / |…|`.
+    Quad {
+        corner: DVec3,
+        edge_u: DVec3,
+        edge_v: DVec3,
+        normal: DVec3,
+        radiance: Rgb,
     },
 }
 
@@ -97,6 +112,11 @@ pub enum LightError {
     Direction([f64; 3]),
     #[error("angular_diameter: must be in [0, 30] degrees, got {0}")]
     AngularDiameter(f64),
+    #[error("{field}: must be a finite edge of positive length perpendicular to the other, got {value:?}")]
+    Edge {
+        field: &'static str,
+        value: [f64; 3],
+    },
 }
 
 fn power(field: &'static str, v: [f64; 3]) -> Result<Rgb, LightError> {
@@ -129,6 +149,12 @@ impl Light {
                 distance,
                 ..
             } => anchor - direction * distance,
+            Light::Quad {
+                corner,
+                edge_u,
+                edge_v,
+                ..
+            } => corner + 0.5 * (edge_u + edge_v),
         }
     }
 
@@ -177,6 +203,39 @@ impl Light {
                     cos_half_angle: (0.5 * angular_diameter).to_radians().cos(),
                     anchor: scene.center,
                     distance: FAR * scene.radius.max(f64::MIN_POSITIVE),
+                }
+            }
+            desc::Light::Quad {
+                corner,
+                edge_u,
+                edge_v,
+                radiance,
+            } => {
+                let u = DVec3::from_array(edge_u);
+                let v = DVec3::from_array(edge_v);
+                let edge = |field, e: DVec3, value| {
+                    if e.is_finite() && e.length() > 0.0 {
+                        Ok(e)
+                    } else {
+                        Err(LightError::Edge { field, value })
+                    }
+                };
+                let u = edge("edge_u", u, edge_u)?;
+                let unit_u = u.normalize();
+                // Validation allows |cos| ≤ 1e-6 between the edges; remove that component.
+                let v = edge("edge_v", v - v.dot(unit_u) * unit_u, edge_v)?;
+                if u.normalize().dot(DVec3::from_array(edge_v).normalize()).abs() > 1e-6 {
+                    return Err(LightError::Edge {
+                        field: "edge_v",
+                        value: edge_v,
+                    });
+                }
+                Light::Quad {
+                    corner: position("corner", corner)?,
+                    edge_u: u,
+                    edge_v: v,
+                    normal: u.cross(v).normalize(),
+                    radiance: power("radiance", radiance)?,
                 }
             }
         })
@@ -234,6 +293,25 @@ impl Light {
                 ..
             } => (cos_half_angle < 1.0 && ray.dir.dot(-direction) >= cos_half_angle)
                 .then(|| (f64::MAX, Light::disk_radiance(irradiance, cos_half_angle))),
+            // One-sided: seen from behind it is there, and black.
+            Light::Quad {
+                corner,
+                edge_u,
+                edge_v,
+                normal,
+                radiance,
+            } => {
+                let facing = ray.dir.dot(normal);
+                let t = (corner - ray.origin).dot(normal) / facing;
+                if !(t > 0.0 && t.is_finite()) {
+                    return None;
+                }
+                let local = ray.origin + t * ray.dir - corner;
+                let s = local.dot(edge_u) / edge_u.length_squared();
+                let r = local.dot(edge_v) / edge_v.length_squared();
+                ((0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&r))
+                    .then(|| (t, if facing < 0.0 { radiance } else { Rgb::ZERO }))
+            }
         }
     }
 
@@ -294,12 +372,55 @@ impl Light {
                     weight,
                 })
             }
+            Light::Quad {
+                corner,
+                edge_u,
+                edge_v,
+                normal,
+                radiance,
+            } => {
+                // Only the front side emits.
+                if (p - corner).dot(normal) <= 0.0 {
+                    return None;
+                }
+                let (y, weight) = match SphericalRectangle::new(p, corner, edge_u, edge_v) {
+                    Some(rect) => (rect.sample(u), radiance * rect.solid_angle()),
+                    None => {
+                        // Small as seen from `p`: by area, `L cos_y A / r²` per sample.
+                        let y = corner + u[0] * edge_u + u[1] * edge_v;
+                        let to = p - y;
+                        let d2 = to.length_squared();
+                        let area = edge_u.length() * edge_v.length();
+                        let cos_y = normal.dot(to) / d2.sqrt();
+                        (y, radiance * (cos_y * area / d2))
+                    }
+                };
+                let to = y - p;
+                let distance = to.length();
+                (distance > 0.0 && weight.is_finite()).then(|| IncidentSample {
+                    dir: to / distance,
+                    distance,
+                    weight,
+                })
+            }
         }
     }
 
-    /// A point uniformly distributed over a sphere light's surface (`None` for a point light).
+    /// A point uniformly distributed over an area light's surface (`None` for a point or
+    /// directional light).
     pub fn sample_area(&self, u: [f64; 2]) -> Option<AreaSample> {
         match *self {
+            Light::Quad {
+                corner,
+                edge_u,
+                edge_v,
+                normal,
+                ..
+            } => Some(AreaSample {
+                point: corner + u[0] * edge_u + u[1] * edge_v,
+                normal,
+                pdf_area: 1.0 / (edge_u.length() * edge_v.length()),
+            }),
             Light::Point { .. } | Light::Directional { .. } => None,
             Light::Sphere { center, radius, .. } => {
                 let z = 1.0 - 2.0 * u[0];

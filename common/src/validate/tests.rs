@@ -11,7 +11,9 @@ fn full_scene() -> Value {
             { "type": "point", "position": [0, 4, -3], "intensity": [10, 10, 10] },
             { "type": "sphere", "center": [2, 3, -2], "radius": 0.5, "radiance": [5, 5, 5] },
             { "type": "directional", "direction": [1, -2, 0], "irradiance": [2, 2, 2],
-              "angular_diameter": 0.53 }
+              "angular_diameter": 0.53 },
+            { "type": "quad", "corner": [-1, 4, -1], "edge_u": [2, 0, 0], "edge_v": [0, 0, 2],
+              "radiance": [3, 3, 3] }
         ],
         "objects": [
             {
@@ -85,7 +87,7 @@ fn rejects_value(edit: impl FnOnce(&mut SceneDescription), path: &str, word: &st
 #[test]
 fn full_scene_is_valid() {
     let scene = SceneDescription::from_json(&full_scene().to_string()).expect("valid");
-    assert_eq!(scene.lights.len(), 3);
+    assert_eq!(scene.lights.len(), 4);
     assert_eq!(scene.objects.len(), 3);
     assert_eq!(
         scene.objects[1].material,
@@ -426,6 +428,29 @@ fn light_values_are_checked() {
         let e = sun(field, value).unwrap_err().to_string();
         assert!(
             e.starts_with(&format!("lights[0].{field}")) && e.contains(problem),
+            "{field}: {e}"
+        );
+    }
+    let quad = |field: &str, value: Value| {
+        let mut light = json!({"type": "quad", "corner": [0, 2, 0], "edge_u": [1, 0, 0],
+                               "edge_v": [0, 0, 1], "radiance": [1, 1, 1]});
+        light[field] = value;
+        with("/lights/0", light)
+    };
+    // Rotated by 45° with rounded decimals: perpendicular within the tolerance.
+    assert!(quad("edge_u", json!([0.7071068, 0.7071068, 0])).is_ok());
+    assert!(quad("edge_v", json!([0, 0, -3])).is_ok());
+    for (field, value, path, problem) in [
+        ("edge_u", json!([0, 0, 0]), "edge_u", "length must be between"),
+        ("edge_v", json!([0, 1e7, 0]), "edge_v", "length must be between"),
+        ("edge_v", json!([0.01, 0, 1]), "edge_v", "perpendicular to lights[0].edge_u"),
+        ("edge_u", json!([0, 0, 1]), "edge_v", "perpendicular"),
+        ("corner", json!([1e6, 0, 0]), "corner + edge_u + edge_v[0]", "within ±1e6"),
+        ("radiance", json!([1, -1, 1]), "radiance", ">= 0"),
+    ] {
+        let e = quad(field, value).unwrap_err().to_string();
+        assert!(
+            e.starts_with(&format!("lights[0].{path}")) && e.contains(problem),
             "{field}: {e}"
         );
     }

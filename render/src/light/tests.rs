@@ -90,3 +90,110 @@ fn bad_lights_are_rejected_by_field() {
     );
     assert!(e.unwrap_err().to_string().starts_with("direction:"));
 }
+
+fn quad(corner: [f64; 3], edge_u: [f64; 3], edge_v: [f64; 3], radiance: f64) -> Light {
+    Light::new(
+        &desc::Light::Quad {
+            corner,
+            edge_u,
+            edge_v,
+            radiance: [radiance; 3],
+        },
+        UNIT,
+    )
+    .unwrap()
+}
+
+/// Lambert's formula: the irradiance at `p` (unit normal `n`) from a polygon of uniform radiance
+/// `L` wholly above the receiver's horizon is `L/2 · |Σ θ_i n·ĝ_i|`, with `θ_i` the angle
+/// between the directions to consecutive vertices and `ĝ_i` the unit normal of their plane.
+fn lambert_irradiance(p: DVec3, n: DVec3, vertices: &[DVec3], radiance: f64) -> f64 {
+    let mut sum = 0.0;
+    for i in 0..vertices.len() {
+        let a = (vertices[i] - p).normalize();
+        let b = (vertices[(i + 1) % vertices.len()] - p).normalize();
+        let theta = a.dot(b).clamp(-1.0, 1.0).acos();
+        sum += theta * n.dot(a.cross(b).normalize());
+    }
+    0.5 * radiance * sum.abs()
+}
+
+/// Irradiance from a quad light at receivers close by (sampled by solid angle), far away (by
+/// area) and at a slant, against Lambert's closed form; behind the light, none.
+#[test]
+fn quad_light_irradiance_matches_lamberts_formula() {
+    let (corner, eu, ev) = ([-1.0, -0.5, 2.0], [2.0, 0.0, 0.0], [0.0, 1.0, 0.0]);
+    // Edges (ev, eu): the normal ev × eu is −z, so the light at z = 2 shines down.
+    let light = quad(corner, ev, eu, 3.0);
+    let vertices = [
+        DVec3::from_array(corner),
+        DVec3::from_array(corner) + DVec3::from_array(ev),
+        DVec3::from_array(corner) + DVec3::from_array(ev) + DVec3::from_array(eu),
+        DVec3::from_array(corner) + DVec3::from_array(eu),
+    ];
+    for (p, n) in [
+        (DVec3::ZERO, DVec3::Z),
+        (DVec3::new(0.3, 0.2, 1.7), DVec3::new(0.1, 0.0, 1.0).normalize()),
+        (DVec3::new(2.0, -1.0, 0.5), DVec3::new(-0.5, 0.2, 1.0).normalize()),
+        // Ω = 2e-4 sr: sampled by area.
+        (DVec3::new(0.0, 0.0, -98.0), DVec3::Z),
+    ] {
+        let mut e = 0.0;
+        let k = 300;
+        for i in 0..k {
+            for j in 0..k {
+                let u = [(i as f64 + 0.5) / k as f64, (j as f64 + 0.5) / k as f64];
+                let s = light.sample_incident(p, u).expect("in front of the light");
+                let hit = p + s.dir * s.distance;
+                assert!((hit.z - 2.0).abs() < 1e-9, "the sample is on the light: {hit}");
+                e += s.weight.x * s.dir.dot(n).max(0.0);
+            }
+        }
+        e /= (k * k) as f64;
+        let expected = lambert_irradiance(p, n, &vertices, 3.0);
+        assert!((e - expected).abs() < 2e-3 * expected, "at {p}: {e} vs {expected}");
+    }
+    assert!(light.sample_incident(DVec3::new(0.0, 0.0, 3.0), [0.5, 0.5]).is_none());
+}
+
+#[test]
+fn quad_lights_are_seen_from_the_front_and_black_from_behind() {
+    let light = quad([-1.0, -1.0, 0.0], [0.0, 2.0, 0.0], [2.0, 0.0, 0.0], 5.0);
+    // Normal: (0,2,0) × (2,0,0) = (0,0,-4): emits toward −z.
+    let (t, l) = light.intersect(&Ray::new(DVec3::new(0.5, 0.5, -3.0), DVec3::Z)).unwrap();
+    assert!((t - 3.0).abs() < 1e-14 && l == DVec3::splat(5.0));
+    let (t, l) = light.intersect(&Ray::new(DVec3::new(0.5, 0.5, 2.0), -DVec3::Z)).unwrap();
+    assert!((t - 2.0).abs() < 1e-14 && l == DVec3::ZERO);
+    assert!(light.intersect(&Ray::new(DVec3::new(1.5, 0.5, -3.0), DVec3::Z)).is_none());
+    assert!(light.intersect(&Ray::new(DVec3::new(0.5, 0.5, -3.0), DVec3::X)).is_none());
+    assert!(light.intersect(&Ray::new(DVec3::new(0.5, 0.5, -3.0), -DVec3::Z)).is_none());
+    let a = light.sample_area([0.25, 0.75]).unwrap();
+    assert_eq!(a.point, DVec3::new(0.5, -0.5, 0.0));
+    assert_eq!(a.normal, -DVec3::Z);
+    assert!((a.pdf_area - 0.25).abs() < 1e-15);
+    assert!((light.center() - DVec3::ZERO).length() < 1e-15);
+}
+
+#[test]
+fn bad_quad_lights_are_rejected_by_field() {
+    let e = Light::new(
+        &desc::Light::Quad {
+            corner: [0.0; 3],
+            edge_u: [1.0, 0.0, 0.0],
+            edge_v: [0.5, 1.0, 0.0],
+            radiance: [1.0; 3],
+        },
+        UNIT,
+    );
+    assert!(e.unwrap_err().to_string().starts_with("edge_v:"));
+    let e = Light::new(
+        &desc::Light::Quad {
+            corner: [0.0; 3],
+            edge_u: [0.0; 3],
+            edge_v: [0.0, 1.0, 0.0],
+            radiance: [1.0; 3],
+        },
+        UNIT,
+    );
+    assert!(e.unwrap_err().to_string().starts_with("edge_u:"));
+}

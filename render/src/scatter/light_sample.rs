@@ -18,13 +18,17 @@
 //! `R` at distance `d` from the centre of an object of bounding radius `r_o`): every point visible
 //! from anywhere in the object can be drawn, and no weight exceeds `L_e / ((1 − share) pdf_cap)`.
 //! When the object's bounding sphere reaches the light, the cap is the whole sphere; when the
-//! centre is inside the light, only the cap is used. Several lights are summed by the caller,
-//! one sample each.
+//! centre is inside the light, only the cap is used. A quad light is sampled the same way: by
+//! solid angle from the object's centre (its spherical rectangle) with the same share, else
+//! uniformly by area, which covers every point and bounds every weight by
+//! `L_e · A / (1 − share)`; by area alone when the centre is behind the quad or sees it under
+//! less than [`MIN_SOLID_ANGLE`](crate::light::rectangle::MIN_SOLID_ANGLE). Several lights are summed by the caller, one sample each.
 
 use glam::DVec3;
 
 use crate::Rgb;
 use crate::light::Light;
+use crate::light::rectangle::SphericalRectangle;
 use crate::scatter::geometry::BoundingSphere;
 
 /// A point that lights a camera segment, for one camera sample.
@@ -142,6 +146,40 @@ pub fn sample_light(light: &Light, object: BoundingSphere, u: [f64; 2]) -> Light
                 position,
                 normal,
                 radiance_over_pdf: if pdf > 0.0 { radiance / pdf } else { Rgb::ZERO },
+            }
+        }
+        Light::Quad {
+            corner,
+            edge_u,
+            edge_v,
+            normal,
+            radiance,
+        } => {
+            let area = edge_u.length() * edge_v.length();
+            let by_area = |s: f64, t: f64| corner + s * edge_u + t * edge_v;
+            let seen = ((object.center - corner).dot(normal) > 0.0)
+                .then(|| SphericalRectangle::new(object.center, corner, edge_u, edge_v))
+                .flatten();
+            let (position, pdf) = match seen {
+                Some(rect) => {
+                    let position = if u[0] < SOLID_ANGLE_SHARE {
+                        rect.sample([u[0] / SOLID_ANGLE_SHARE, u[1]])
+                    } else {
+                        by_area((u[0] - SOLID_ANGLE_SHARE) / (1.0 - SOLID_ANGLE_SHARE), u[1])
+                    };
+                    // By solid angle from the centre: `cos_y / (Ω r²)` per unit area.
+                    let to = object.center - position;
+                    let d2 = to.length_squared();
+                    let by_angle = normal.dot(to).max(0.0) / (d2.sqrt() * d2 * rect.solid_angle());
+                    let pdf = SOLID_ANGLE_SHARE * by_angle + (1.0 - SOLID_ANGLE_SHARE) / area;
+                    (position, pdf)
+                }
+                None => (by_area(u[0], u[1]), 1.0 / area),
+            };
+            LightPoint::Area {
+                position,
+                normal,
+                radiance_over_pdf: radiance / pdf,
             }
         }
     }

@@ -51,6 +51,98 @@ fn sphere_light_points_estimate_the_fluence() {
     }
 }
 
+/// The same for a quad light: the fluence at `p` is `L_e · Ω(p)` in front of it (Ω the solid
+/// angle of the rectangle, in closed form) and 0 behind. Quads near the object (sampled mostly by
+/// solid angle), far away (by area), and one whose plane cuts the object (centre behind it).
+#[test]
+fn quad_light_points_estimate_the_fluence() {
+    let radiance = DVec3::new(1.0, 2.0, 0.5);
+    let object = BoundingSphere {
+        center: DVec3::ZERO,
+        radius: 1.0,
+    };
+    for (corner, edge_u, edge_v) in [
+        (DVec3::new(-1.0, 1.5, -1.0), DVec3::new(0.0, 0.0, 2.0), DVec3::new(2.0, 0.0, 0.0)),
+        (DVec3::new(-0.5, -0.5, -40.0), DVec3::new(0.3, 0.0, 0.0), DVec3::new(0.0, 0.2, 0.0)),
+        (DVec3::new(-2.0, 0.4, -2.0), DVec3::new(4.0, 0.0, 0.0), DVec3::new(0.0, 0.0, 4.0)),
+    ] {
+        let light = Light::new(
+            &spindle_common::scene::Light::Quad {
+                corner: corner.to_array(),
+                edge_u: edge_u.to_array(),
+                edge_v: edge_v.to_array(),
+                radiance: radiance.to_array(),
+            },
+            crate::light::SceneSphere {
+                center: DVec3::ZERO,
+                radius: 1.0,
+            },
+        )
+        .unwrap();
+        let normal = edge_u.cross(edge_v).normalize();
+        for p in [
+            DVec3::ZERO,
+            DVec3::new(0.0, 0.0, -0.99),
+            DVec3::new(0.3, 0.9, 0.1),
+            DVec3::new(-0.7, -0.5, 0.0),
+        ] {
+            let n = 400;
+            let mut sum = Rgb::ZERO;
+            for i in 0..n {
+                for j in 0..n {
+                    let u = [(i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64];
+                    let point = sample_light(&light, object, u);
+                    let d2 = point.position().distance_squared(p);
+                    sum += point.intensity_toward(p) / d2;
+                }
+            }
+            let estimate = sum / (n * n) as f64;
+            let in_front = (p - corner).dot(normal) > 0.0;
+            let omega = crate::light::rectangle::tests::quad_solid_angle(p, corner, edge_u, edge_v);
+            let truth = if in_front { radiance * omega } else { Rgb::ZERO };
+            let err = ((estimate - truth).abs() / radiance).max_element() / omega;
+            assert!(
+                err < 2e-3,
+                "quad at {corner}, p {p}: {estimate} vs {truth} ({err})"
+            );
+        }
+    }
+}
+
+/// A quad light's sample weights never exceed `L_e · A / (1 − share)`.
+#[test]
+fn quad_light_weights_are_bounded_by_the_area_share() {
+    let light = Light::new(
+        &spindle_common::scene::Light::Quad {
+            corner: [-1.0, 1.2, -1.0],
+            edge_u: [0.0, 0.0, 2.0],
+            edge_v: [2.0, 0.0, 0.0],
+            radiance: [1.0, 1.0, 1.0],
+        },
+        crate::light::SceneSphere {
+            center: DVec3::ZERO,
+            radius: 1.0,
+        },
+    )
+    .unwrap();
+    let object = BoundingSphere {
+        center: DVec3::ZERO,
+        radius: 1.0,
+    };
+    let bound = 4.0 / (1.0 - SOLID_ANGLE_SHARE);
+    let mut sampler = crate::sampler::Sampler::new(3, 0, 0, 0);
+    for _ in 0..20_000 {
+        let LightPoint::Area {
+            radiance_over_pdf, ..
+        } = sample_light(&light, object, sampler.next_2d())
+        else {
+            panic!("a quad light gives area points");
+        };
+        assert!(radiance_over_pdf.max_element() <= bound * (1.0 + 1e-12));
+        assert!(radiance_over_pdf.min_element() > 0.0);
+    }
+}
+
 #[test]
 fn point_lights_are_used_as_they_are() {
     let light = Light::Point {
