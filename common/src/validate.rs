@@ -250,7 +250,9 @@ fn check_edge(path: &str, v: &Vec3) -> Check {
     } else {
         Err(SceneError::new(
             path,
-            format!("its length must be between {MIN_LENGTH:e} and {MAX_COORDINATE:e}, got {length}"),
+            format!(
+                "its length must be between {MIN_LENGTH:e} and {MAX_COORDINATE:e}, got {length}"
+            ),
         ))
     }
 }

@@ -112,7 +112,9 @@ pub enum LightError {
     Direction([f64; 3]),
     #[error("angular_diameter: must be in [0, 30] degrees, got {0}")]
     AngularDiameter(f64),
-    #[error("{field}: must be a finite edge of positive length perpendicular to the other, got {value:?}")]
+    #[error(
+        "{field}: must be a finite edge of positive length perpendicular to the other, got {value:?}"
+    )]
     Edge {
         field: &'static str,
         value: [f64; 3],
@@ -224,7 +226,11 @@ impl Light {
                 let unit_u = u.normalize();
                 // Validation allows |cos| ≤ 1e-6 between the edges; remove that component.
                 let v = edge("edge_v", v - v.dot(unit_u) * unit_u, edge_v)?;
-                if u.normalize().dot(DVec3::from_array(edge_v).normalize()).abs() > 1e-6 {
+                if u.normalize()
+                    .dot(DVec3::from_array(edge_v).normalize())
+                    .abs()
+                    > 1e-6
+                {
                     return Err(LightError::Edge {
                         field: "edge_v",
                         value: edge_v,
@@ -309,8 +315,8 @@ impl Light {
                 let local = ray.origin + t * ray.dir - corner;
                 let s = local.dot(edge_u) / edge_u.length_squared();
                 let r = local.dot(edge_v) / edge_v.length_squared();
-                ((0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&r))
-                    .then(|| (t, if facing < 0.0 { radiance } else { Rgb::ZERO }))
+                let seen = if facing < 0.0 { radiance } else { Rgb::ZERO };
+                ((0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&r)).then_some((t, seen))
             }
         }
     }

@@ -508,28 +508,88 @@ fn objects_sphere(objects: &[Object]) -> SceneSphere {
     }
 }
 
-/// A sphere light must lie wholly inside or wholly outside each medium: one that crosses a
-/// dielectric surface is refused, naming both.
+/// An area light must lie wholly inside or wholly outside each medium: a sphere or quad light
+/// that crosses a dielectric surface is refused, naming both.
 fn check_straddle(objects: &[Object], j: usize, light: &Light) -> Result<(), SceneError> {
-    let Light::Sphere { center, radius, .. } = *light else {
-        return Ok(());
-    };
     for o in objects {
         if !matches!(o.material, Material::Dielectric(_)) {
             continue;
         }
         let (lo, hi) = o.mesh.bounds();
-        let near_box = center.clamp(lo, hi).distance(center) < radius;
-        if near_box && containment::distance_to_mesh(&o.mesh, center) < radius {
+        let what = match *light {
+            Light::Sphere { center, radius, .. } => {
+                let near_box = center.clamp(lo, hi).distance(center) < radius;
+                (near_box && containment::distance_to_mesh(&o.mesh, center) < radius)
+                    .then(|| format!("the sphere light (centre {center}, radius {radius})"))
+            }
+            Light::Quad {
+                corner,
+                edge_u,
+                edge_v,
+                ..
+            } => quad_crosses_mesh(&o.mesh, corner, edge_u, edge_v)
+                .then(|| format!("the quad light (corner {corner}, edges {edge_u}, {edge_v})")),
+            Light::Point { .. } | Light::Directional { .. } => None,
+        };
+        if let Some(what) = what {
             return Err(SceneError::new(
                 format!("lights[{j}]"),
                 format!(
-                    "the sphere light (centre {center}, radius {radius}) crosses the surface of \
-                     {}: a light must lie wholly inside or wholly outside each medium",
+                    "{what} crosses the surface of {}: a light must lie wholly inside or wholly \
+                     outside each medium",
                     o.name
                 ),
             ));
         }
     }
     Ok(())
+}
+
+/// Whether the rectangle `corner + s·u + t·v` (`s, t ∈ [0, 1]`) and the mesh's surface cross:
+/// two non-coplanar triangles meet exactly when an edge of one passes through the other, so
+/// every edge of each triangle near the quad is tested against the quad's two halves, and the
+/// quad's four edges against the triangle.
+fn quad_crosses_mesh(mesh: &TriangleMesh, corner: DVec3, u: DVec3, v: DVec3) -> bool {
+    let quad_points = [corner, corner + u, corner + u + v, corner + v];
+    let quad_lo = quad_points.iter().fold(DVec3::INFINITY, |a, &b| a.min(b));
+    let quad_hi = quad_points
+        .iter()
+        .fold(DVec3::NEG_INFINITY, |a, &b| a.max(b));
+    let (lo, hi) = mesh.bounds();
+    if quad_lo.cmpgt(hi).any() || quad_hi.cmplt(lo).any() {
+        return false;
+    }
+    let halves = [
+        [quad_points[0], quad_points[1], quad_points[2]],
+        [quad_points[0], quad_points[2], quad_points[3]],
+    ];
+    (0..mesh.triangle_count()).any(|i| {
+        let tri = mesh.corners(i);
+        let tri_lo = tri[0].min(tri[1]).min(tri[2]);
+        let tri_hi = tri[0].max(tri[1]).max(tri[2]);
+        if tri_lo.cmpgt(quad_hi).any() || tri_hi.cmplt(quad_lo).any() {
+            return false;
+        }
+        (0..3).any(|k| {
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            halves.iter().any(|h| segment_crosses_triangle(a, b, *h))
+        }) || (0..4).any(|k| {
+            let (a, b) = (quad_points[k], quad_points[(k + 1) % 4]);
+            segment_crosses_triangle(a, b, tri)
+        })
+    })
+}
+
+/// Whether the segment `a–b` passes through the triangle (a segment in its plane does not).
+fn segment_crosses_triangle(a: DVec3, b: DVec3, [p, q, r]: [DVec3; 3]) -> bool {
+    let n = (q - p).cross(r - p);
+    let (da, db) = ((a - p).dot(n), (b - p).dot(n));
+    if da * db > 0.0 || da == db {
+        return false;
+    }
+    let x = a + (b - a) * (da / (da - db));
+    // Inside when x is on the inner side of every edge.
+    [(p, q), (q, r), (r, p)]
+        .iter()
+        .all(|&(s, t)| (t - s).cross(x - s).dot(n) >= 0.0)
 }

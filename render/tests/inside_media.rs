@@ -178,7 +178,9 @@ fn light_inside_matches_the_airlight_integral() {
 }
 
 /// A point light exactly on the surface (a vertex of the icosphere) lights the medium, finitely;
-/// a sphere light that crosses the surface is refused, naming the light and the object.
+/// a sphere or quad light that crosses the surface is refused, naming the light and the object;
+/// a quad light wholly inside the medium lights it, one wholly outside (even inside the object's
+/// bounding box) is in the air.
 #[test]
 fn lights_on_or_across_the_surface() {
     let scene = |lights: Value| {
@@ -216,4 +218,24 @@ fn lights_on_or_across_the_surface() {
         across.starts_with("lights[0]:") && across.contains("objects[0]"),
         "{across}"
     );
+    let quad = |corner: [f64; 3], edge: f64| {
+        json!([{"type": "quad", "corner": corner, "edge_u": [edge, 0, 0],
+                "edge_v": [0, edge, 0], "radiance": [1, 1, 1]}])
+    };
+    // Through the middle of the sphere: its edges never touch the surface, the surface crosses it.
+    for (corner, edge) in [([-2.0, -2.0, 0.0], 4.0), ([0.5, 0.5, 0.3], 0.8)] {
+        let across = scene(quad(corner, edge))
+            .expect_err("a quad light across the surface is refused")
+            .to_string();
+        assert!(
+            across.starts_with("lights[0]:")
+                && across.contains("quad light")
+                && across.contains("objects[0]"),
+            "{across}"
+        );
+    }
+    let inside = scene(quad([-0.3, -0.3, 0.2], 0.6)).expect("a quad inside the medium");
+    assert_eq!(inside.light_medium(0), Some(0));
+    let outside = scene(quad([0.8, 0.8, 0.0], 0.15)).expect("a quad in a corner of the box");
+    assert_eq!(outside.light_medium(0), None);
 }

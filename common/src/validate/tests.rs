@@ -437,15 +437,37 @@ fn light_values_are_checked() {
         light[field] = value;
         with("/lights/0", light)
     };
-    // Rotated by 45° with rounded decimals: perpendicular within the tolerance.
-    assert!(quad("edge_u", json!([0.7071068, 0.7071068, 0])).is_ok());
+    // A rotated rectangle written with rounded decimals: perpendicular within the tolerance.
+    let rounded = json!({"type": "quad", "corner": [0, 2, 0], "edge_u": [0.6, 0.8, 0],
+                         "edge_v": [-0.8000001, 0.6, 0], "radiance": [1, 1, 1]});
+    assert!(with("/lights/0", rounded).is_ok());
     assert!(quad("edge_v", json!([0, 0, -3])).is_ok());
     for (field, value, path, problem) in [
-        ("edge_u", json!([0, 0, 0]), "edge_u", "length must be between"),
-        ("edge_v", json!([0, 1e7, 0]), "edge_v", "length must be between"),
-        ("edge_v", json!([0.01, 0, 1]), "edge_v", "perpendicular to lights[0].edge_u"),
+        (
+            "edge_u",
+            json!([0, 0, 0]),
+            "edge_u",
+            "length must be between",
+        ),
+        (
+            "edge_v",
+            json!([0, 1e7, 0]),
+            "edge_v",
+            "length must be between",
+        ),
+        (
+            "edge_v",
+            json!([0.01, 0, 1]),
+            "edge_v",
+            "perpendicular to lights[0].edge_u",
+        ),
         ("edge_u", json!([0, 0, 1]), "edge_v", "perpendicular"),
-        ("corner", json!([1e6, 0, 0]), "corner + edge_u + edge_v[0]", "within ±1e6"),
+        (
+            "corner",
+            json!([1e6, 0, 0]),
+            "corner + edge_u + edge_v[0]",
+            "within ±1e6",
+        ),
         ("radiance", json!([1, -1, 1]), "radiance", ">= 0"),
     ] {
         let e = quad(field, value).unwrap_err().to_string();

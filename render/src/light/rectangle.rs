@@ -57,7 +57,7 @@ impl SphericalRectangle {
             z0 = -z0;
         }
         // In the plane (or nearly, relative to the rectangle's size): no solid angle.
-        if !(z0 < -1e-9 * exl.max(eyl)) {
+        if z0 >= -1e-9 * exl.max(eyl) {
             return None;
         }
         let (x0, y0) = (d.dot(x), d.dot(y));

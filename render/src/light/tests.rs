@@ -133,8 +133,14 @@ fn quad_light_irradiance_matches_lamberts_formula() {
     ];
     for (p, n) in [
         (DVec3::ZERO, DVec3::Z),
-        (DVec3::new(0.3, 0.2, 1.7), DVec3::new(0.1, 0.0, 1.0).normalize()),
-        (DVec3::new(2.0, -1.0, 0.5), DVec3::new(-0.5, 0.2, 1.0).normalize()),
+        (
+            DVec3::new(0.3, 0.2, 1.7),
+            DVec3::new(0.1, 0.0, 1.0).normalize(),
+        ),
+        (
+            DVec3::new(2.0, -1.0, 0.5),
+            DVec3::new(-0.5, 0.2, 1.0).normalize(),
+        ),
         // Ω = 2e-4 sr: sampled by area.
         (DVec3::new(0.0, 0.0, -98.0), DVec3::Z),
     ] {
@@ -145,28 +151,54 @@ fn quad_light_irradiance_matches_lamberts_formula() {
                 let u = [(i as f64 + 0.5) / k as f64, (j as f64 + 0.5) / k as f64];
                 let s = light.sample_incident(p, u).expect("in front of the light");
                 let hit = p + s.dir * s.distance;
-                assert!((hit.z - 2.0).abs() < 1e-9, "the sample is on the light: {hit}");
+                assert!(
+                    (hit.z - 2.0).abs() < 1e-9,
+                    "the sample is on the light: {hit}"
+                );
                 e += s.weight.x * s.dir.dot(n).max(0.0);
             }
         }
         e /= (k * k) as f64;
         let expected = lambert_irradiance(p, n, &vertices, 3.0);
-        assert!((e - expected).abs() < 2e-3 * expected, "at {p}: {e} vs {expected}");
+        assert!(
+            (e - expected).abs() < 2e-3 * expected,
+            "at {p}: {e} vs {expected}"
+        );
     }
-    assert!(light.sample_incident(DVec3::new(0.0, 0.0, 3.0), [0.5, 0.5]).is_none());
+    assert!(
+        light
+            .sample_incident(DVec3::new(0.0, 0.0, 3.0), [0.5, 0.5])
+            .is_none()
+    );
 }
 
 #[test]
 fn quad_lights_are_seen_from_the_front_and_black_from_behind() {
     let light = quad([-1.0, -1.0, 0.0], [0.0, 2.0, 0.0], [2.0, 0.0, 0.0], 5.0);
     // Normal: (0,2,0) × (2,0,0) = (0,0,-4): emits toward −z.
-    let (t, l) = light.intersect(&Ray::new(DVec3::new(0.5, 0.5, -3.0), DVec3::Z)).unwrap();
+    let (t, l) = light
+        .intersect(&Ray::new(DVec3::new(0.5, 0.5, -3.0), DVec3::Z))
+        .unwrap();
     assert!((t - 3.0).abs() < 1e-14 && l == DVec3::splat(5.0));
-    let (t, l) = light.intersect(&Ray::new(DVec3::new(0.5, 0.5, 2.0), -DVec3::Z)).unwrap();
+    let (t, l) = light
+        .intersect(&Ray::new(DVec3::new(0.5, 0.5, 2.0), -DVec3::Z))
+        .unwrap();
     assert!((t - 2.0).abs() < 1e-14 && l == DVec3::ZERO);
-    assert!(light.intersect(&Ray::new(DVec3::new(1.5, 0.5, -3.0), DVec3::Z)).is_none());
-    assert!(light.intersect(&Ray::new(DVec3::new(0.5, 0.5, -3.0), DVec3::X)).is_none());
-    assert!(light.intersect(&Ray::new(DVec3::new(0.5, 0.5, -3.0), -DVec3::Z)).is_none());
+    assert!(
+        light
+            .intersect(&Ray::new(DVec3::new(1.5, 0.5, -3.0), DVec3::Z))
+            .is_none()
+    );
+    assert!(
+        light
+            .intersect(&Ray::new(DVec3::new(0.5, 0.5, -3.0), DVec3::X))
+            .is_none()
+    );
+    assert!(
+        light
+            .intersect(&Ray::new(DVec3::new(0.5, 0.5, -3.0), -DVec3::Z))
+            .is_none()
+    );
     let a = light.sample_area([0.25, 0.75]).unwrap();
     assert_eq!(a.point, DVec3::new(0.5, -0.5, 0.0));
     assert_eq!(a.normal, -DVec3::Z);

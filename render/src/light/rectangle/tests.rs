@@ -32,13 +32,13 @@ fn cases() -> Vec<(DVec3, DVec3, DVec3, DVec3)> {
         DVec3::new(0.01, 0.02, 0.01),
         DVec3::new(-0.4, 1.3, -5.0),
     ] {
-        cases.push((origin, DVec3::ZERO, DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0)));
         cases.push((
             origin,
-            DVec3::new(-0.5, 0.2, 0.1),
-            tilted_u,
-            tilted_v,
+            DVec3::ZERO,
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(0.0, 1.0, 0.0),
         ));
+        cases.push((origin, DVec3::new(-0.5, 0.2, 0.1), tilted_u, tilted_v));
     }
     cases
 }
@@ -49,7 +49,11 @@ fn the_solid_angle_matches_the_closed_form() {
         let rect = SphericalRectangle::new(origin, corner, u, v).expect("a visible rectangle");
         let expected = quad_solid_angle(origin, corner, u, v);
         let err = (rect.solid_angle() - expected).abs() / expected;
-        assert!(err < 1e-10, "origin {origin}: {} vs {expected}", rect.solid_angle());
+        assert!(
+            err < 1e-10,
+            "origin {origin}: {} vs {expected}",
+            rect.solid_angle()
+        );
     }
     // On the axis of a 2a × 2b rectangle at distance h: 4 asin(ab / √((a²+h²)(b²+h²))).
     let (a, b, h) = (0.5f64, 1.5f64, 0.8f64);
@@ -63,8 +67,14 @@ fn the_solid_angle_matches_the_closed_form() {
     let expected = 4.0 * (a * b / ((a * a + h * h) * (b * b + h * h)).sqrt()).asin();
     assert!((rect.solid_angle() - expected).abs() < 1e-12 * expected);
     // In the plane, or too small to sample by angle: declined.
-    assert!(SphericalRectangle::new(DVec3::new(3.0, 0.5, 0.0), DVec3::ZERO, DVec3::X, DVec3::Y).is_none());
-    assert!(SphericalRectangle::new(DVec3::new(0.0, 0.0, 100.0), DVec3::ZERO, DVec3::X, DVec3::Y).is_none());
+    assert!(
+        SphericalRectangle::new(DVec3::new(3.0, 0.5, 0.0), DVec3::ZERO, DVec3::X, DVec3::Y)
+            .is_none()
+    );
+    assert!(
+        SphericalRectangle::new(DVec3::new(0.0, 0.0, 100.0), DVec3::ZERO, DVec3::X, DVec3::Y)
+            .is_none()
+    );
 }
 
 /// Samples lie on the rectangle, and they are uniform in solid angle: over a stratified grid,
@@ -85,9 +95,15 @@ fn samples_are_uniform_in_solid_angle() {
             for j in 0..n {
                 let s = [(i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64];
                 let p = rect.sample(s);
-                let (a, b) = ((p - corner).dot(u) / u.length_squared(), (p - corner).dot(v) / v.length_squared());
+                let (a, b) = (
+                    (p - corner).dot(u) / u.length_squared(),
+                    (p - corner).dot(v) / v.length_squared(),
+                );
                 assert!((p - corner).dot(normal).abs() < 1e-9, "off the plane: {p}");
-                assert!((-1e-9..=1.0 + 1e-9).contains(&a) && (-1e-9..=1.0 + 1e-9).contains(&b), "off the rectangle: {a}, {b}");
+                assert!(
+                    (-1e-9..=1.0 + 1e-9).contains(&a) && (-1e-9..=1.0 + 1e-9).contains(&b),
+                    "off the rectangle: {a}, {b}"
+                );
                 sum += f((p - origin).normalize());
             }
         }
@@ -97,7 +113,8 @@ fn samples_are_uniform_in_solid_angle() {
         let da = u.length() * v.length() / (m * m) as f64;
         for i in 0..m {
             for j in 0..m {
-                let y = corner + u * ((i as f64 + 0.5) / m as f64) + v * ((j as f64 + 0.5) / m as f64);
+                let y =
+                    corner + u * ((i as f64 + 0.5) / m as f64) + v * ((j as f64 + 0.5) / m as f64);
                 let r = y - origin;
                 let r2 = r.length_squared();
                 let w = r / r2.sqrt();
@@ -105,6 +122,9 @@ fn samples_are_uniform_in_solid_angle() {
             }
         }
         let err = (by_angle - brute).abs() / brute.abs();
-        assert!(err < 2e-3, "origin {origin}: {by_angle} by solid angle vs {brute} by area ({err:.1e})");
+        assert!(
+            err < 2e-3,
+            "origin {origin}: {by_angle} by solid angle vs {brute} by area ({err:.1e})"
+        );
     }
 }

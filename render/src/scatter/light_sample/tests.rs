@@ -62,9 +62,21 @@ fn quad_light_points_estimate_the_fluence() {
         radius: 1.0,
     };
     for (corner, edge_u, edge_v) in [
-        (DVec3::new(-1.0, 1.5, -1.0), DVec3::new(0.0, 0.0, 2.0), DVec3::new(2.0, 0.0, 0.0)),
-        (DVec3::new(-0.5, -0.5, -40.0), DVec3::new(0.3, 0.0, 0.0), DVec3::new(0.0, 0.2, 0.0)),
-        (DVec3::new(-2.0, 0.4, -2.0), DVec3::new(4.0, 0.0, 0.0), DVec3::new(0.0, 0.0, 4.0)),
+        (
+            DVec3::new(-1.0, 1.5, -1.0),
+            DVec3::new(0.0, 0.0, 2.0),
+            DVec3::new(2.0, 0.0, 0.0),
+        ),
+        (
+            DVec3::new(-0.5, -0.5, -40.0),
+            DVec3::new(0.3, 0.0, 0.0),
+            DVec3::new(0.0, 0.2, 0.0),
+        ),
+        (
+            DVec3::new(-2.0, 0.4, -2.0),
+            DVec3::new(4.0, 0.0, 0.0),
+            DVec3::new(0.0, 0.0, 4.0),
+        ),
     ] {
         let light = Light::new(
             &spindle_common::scene::Light::Quad {
@@ -99,7 +111,11 @@ fn quad_light_points_estimate_the_fluence() {
             let estimate = sum / (n * n) as f64;
             let in_front = (p - corner).dot(normal) > 0.0;
             let omega = crate::light::rectangle::tests::quad_solid_angle(p, corner, edge_u, edge_v);
-            let truth = if in_front { radiance * omega } else { Rgb::ZERO };
+            let truth = if in_front {
+                radiance * omega
+            } else {
+                Rgb::ZERO
+            };
             let err = ((estimate - truth).abs() / radiance).max_element() / omega;
             assert!(
                 err < 2e-3,
