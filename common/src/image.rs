@@ -1,4 +1,4 @@
-//! The finished image: the three layers of a whole frame, and the files spindle writes.
+//! The finished image: the four layers of a whole frame, and the files spindle writes.
 //!
 //! Tiles arrive from anywhere (the coordinator takes them from workers over the network, so a
 //! tile is untrusted until checked) and are placed into an [`Image`]; the image is then written
@@ -8,7 +8,8 @@
 //! - Pixels are RGB `f32`, row-major, row 0 at the top, the same layout as
 //!   [`TilePixels`]: sample `(row * width + col) * 3 + channel`.
 //! - The EXR file is one part, scanlines in increasing order, ZIP compression (16 lines per
-//!   block), channels `R,G,B` (= `total`), `surface.R/G/B` and `single_scatter.R/G/B`, all
+//!   block), channels `R,G,B` (= `total`), `surface.R/G/B`, `single_scatter.R/G/B` and
+//!   `stderr.R/G/B`, all
 //!   32-bit float, and one text header attribute (UTF-8) per entry of [`Image::attributes`].
 //! - The bytes of a file are a pure function of the image: no timestamps, and header
 //!   attributes are written sorted by name (as OpenEXR's own library does), so the same image
@@ -70,10 +71,10 @@ pub enum ImageError {
 
 /// The EXR channel groups of each layer, in [`LAYER_NAMES`] order. `total` is the plain,
 /// ungrouped `R,G,B`, so any viewer shows it by default.
-const EXR_PREFIXES: [&str; 3] = ["", "surface.", "single_scatter."];
+const EXR_PREFIXES: [&str; 4] = ["", "surface.", "single_scatter.", "stderr."];
 const RGB: [&str; 3] = ["R", "G", "B"];
 
-/// A full frame: the three layers of every pixel, and text attributes for the file header.
+/// A full frame: the four layers of every pixel, and text attributes for the file header.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Image {
     pub width: u32,
@@ -84,6 +85,8 @@ pub struct Image {
     pub surface: Vec<f32>,
     /// Single scattering inside media, RGB, row-major.
     pub single_scatter: Vec<f32>,
+    /// The standard error of each pixel's `total`, estimated from its samples, RGB, row-major.
+    pub stderr: Vec<f32>,
     /// Written as text attributes of the EXR header (e.g. `spindle.spp` = `64`).
     pub attributes: BTreeMap<String, String>,
 }
@@ -98,6 +101,7 @@ impl Image {
             total: vec![0.0; n],
             surface: vec![0.0; n],
             single_scatter: vec![0.0; n],
+            stderr: vec![0.0; n],
             attributes: BTreeMap::new(),
         }
     }
@@ -108,12 +112,22 @@ impl Image {
     }
 
     /// The layers in [`LAYER_NAMES`] order.
-    pub fn layers(&self) -> [&[f32]; 3] {
-        [&self.total, &self.surface, &self.single_scatter]
+    pub fn layers(&self) -> [&[f32]; 4] {
+        [
+            &self.total,
+            &self.surface,
+            &self.single_scatter,
+            &self.stderr,
+        ]
     }
 
-    fn layers_mut(&mut self) -> [&mut Vec<f32>; 3] {
-        [&mut self.total, &mut self.surface, &mut self.single_scatter]
+    fn layers_mut(&mut self) -> [&mut Vec<f32>; 4] {
+        [
+            &mut self.total,
+            &mut self.surface,
+            &mut self.single_scatter,
+            &mut self.stderr,
+        ]
     }
 
     /// Copies a rendered tile into its place. The tile is checked first (it may come from the
@@ -266,7 +280,7 @@ impl Image {
     }
 
     /// Reads an EXR file written by [`Image::write_exr`] (or any one-part EXR with the same
-    /// nine float channels), with its text header attributes.
+    /// twelve float channels), with its text header attributes.
     pub fn from_exr_bytes(bytes: &[u8]) -> Result<Image, ImageError> {
         read_exr_from(bytes, "(in memory)")
     }
@@ -467,7 +481,8 @@ fn read_exr_from(bytes: &[u8], path: &str) -> Result<Image, ImageError> {
             let dst = match layer_name {
                 "total" => &mut image.total,
                 "surface" => &mut image.surface,
-                _ => &mut image.single_scatter,
+                "single_scatter" => &mut image.single_scatter,
+                _ => &mut image.stderr,
             };
             for (p, v) in samples.iter().enumerate() {
                 dst[p * 3 + c] = *v;

@@ -637,7 +637,7 @@ mod tests {
     fn canonical_bytes_follow_the_documented_layout() {
         let t = tile();
         let b = canonical_pixel_bytes(&t);
-        assert_eq!(b.len(), 16 + 4 * 3 * 6);
+        assert_eq!(b.len(), 16 + 4 * 4 * 6);
         assert_eq!(&b[0..4], &3u32.to_le_bytes());
         assert_eq!(&b[12..16], &1u32.to_le_bytes());
         assert_eq!(&b[16..20], &1.0f32.to_bits().to_le_bytes());

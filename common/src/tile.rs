@@ -25,8 +25,10 @@ impl TileRect {
     }
 }
 
-/// The image layers spindle writes, in this order. `total` = `surface` + `single_scatter`.
-pub const LAYER_NAMES: [&str; 3] = ["total", "surface", "single_scatter"];
+/// The image layers spindle writes, in this order. `total` = `surface` + `single_scatter`;
+/// `stderr` is the standard error of each pixel's mean of `total`, estimated from its samples
+/// (0 with one sample per pixel, where it cannot be estimated).
+pub const LAYER_NAMES: [&str; 4] = ["total", "surface", "single_scatter", "stderr"];
 
 /// Rendered pixels of one rectangle: for each layer in [`LAYER_NAMES`] order, RGB triples in
 /// row-major order (`(row * width + col) * 3 + channel`). Every value is a finite f32: JSON
@@ -41,6 +43,8 @@ pub struct TilePixels {
     pub surface: Vec<f32>,
     #[serde(deserialize_with = "finite_layer")]
     pub single_scatter: Vec<f32>,
+    #[serde(deserialize_with = "finite_layer")]
+    pub stderr: Vec<f32>,
     pub stats: RenderStats,
 }
 
@@ -81,13 +85,19 @@ impl TilePixels {
             total: vec![0.0; n],
             surface: vec![0.0; n],
             single_scatter: vec![0.0; n],
+            stderr: vec![0.0; n],
             stats: RenderStats::default(),
         }
     }
 
     /// The layers in [`LAYER_NAMES`] order.
-    pub fn layers(&self) -> [&[f32]; 3] {
-        [&self.total, &self.surface, &self.single_scatter]
+    pub fn layers(&self) -> [&[f32]; 4] {
+        [
+            &self.total,
+            &self.surface,
+            &self.single_scatter,
+            &self.stderr,
+        ]
     }
 }
 

@@ -8,14 +8,19 @@ use rayon::prelude::*;
 use spindle_common::stats::RenderStats;
 use spindle_common::tile::{TilePixels, TileRect};
 
+use crate::Rgb;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::transport::{Radiance, radiance};
 
-/// The mean radiance of one pixel over its samples, and what it cost.
+/// The mean radiance of one pixel over its samples, the standard error of its total, and what
+/// it cost.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct PixelValue {
     pub radiance: Radiance,
+    /// `sqrt(s² / n)` per channel, with `s²` the unbiased sample variance of the total over the
+    /// pixel's `n` samples (Welford's running form); 0 when `n` = 1, where it is unknown.
+    pub stderr: Rgb,
     pub stats: RenderStats,
 }
 
@@ -24,6 +29,8 @@ pub fn render_pixel(scene: &Scene, x: u32, y: u32) -> PixelValue {
     let film = scene.film();
     let mut stats = RenderStats::default();
     let mut sum = Radiance::default();
+    // Welford: the running mean of the total and the sum of squared deviations from it.
+    let (mut mean, mut m2) = (Rgb::ZERO, Rgb::ZERO);
     for s in 0..film.spp {
         let mut sampler = Sampler::new(film.seed, x, y, s);
         let [u, v] = sampler.next_2d();
@@ -32,13 +39,23 @@ pub fn render_pixel(scene: &Scene, x: u32, y: u32) -> PixelValue {
         let r = radiance(scene, &ray, &mut sampler, &mut stats);
         sum.surface += r.surface;
         sum.single_scatter += r.single_scatter;
+        let total = r.surface + r.single_scatter;
+        let delta = total - mean;
+        mean += delta / f64::from(s + 1);
+        m2 += delta * (total - mean);
     }
     let n = film.spp.max(1) as f64;
+    let stderr = if film.spp > 1 {
+        (m2.max(Rgb::ZERO) / ((n - 1.0) * n)).map(f64::sqrt)
+    } else {
+        Rgb::ZERO
+    };
     PixelValue {
         radiance: Radiance {
             surface: sum.surface / n,
             single_scatter: sum.single_scatter / n,
         },
+        stderr,
         stats,
     }
 }
@@ -74,6 +91,7 @@ pub fn render_tile_with_progress(
             tile.total[3 * i + c] = total[c] as f32;
             tile.surface[3 * i + c] = r.surface[c] as f32;
             tile.single_scatter[3 * i + c] = r.single_scatter[c] as f32;
+            tile.stderr[3 * i + c] = value.stderr[c] as f32;
         }
         tile.stats.add(&value.stats);
     }

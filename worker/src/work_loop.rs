@@ -81,7 +81,7 @@ pub struct Worker {
 
 /// How the work on one lease ended, before delivery.
 enum Rendered {
-    Pixels(TilePixels),
+    Pixels(Box<TilePixels>),
     /// The tile cannot be rendered: report this reason (`deterministic`: no worker could).
     Failed {
         reason: String,
@@ -248,7 +248,7 @@ impl Worker {
         ));
         let outcome = match self.render(job, lease.rect, &stop).await {
             Ok(Rendered::Pixels(pixels)) => {
-                match self.deliver(worker_id, held, pixels, &stop).await {
+                match self.deliver(worker_id, held, *pixels, &stop).await {
                     Some(reason) => {
                         self.report_failure(worker_id, held, reason, false, &stop)
                             .await
@@ -401,7 +401,7 @@ impl Worker {
             // The lease was lost (or the deadline passed) while rendering.
             return Ok(Rendered::Abandoned);
         }
-        Ok(Rendered::Pixels(pixels))
+        Ok(Rendered::Pixels(Box::new(pixels)))
     }
 }
 

@@ -23,9 +23,14 @@ fn patterned(width: u32, height: u32) -> Image {
 
 fn tile_of(rect: TileRect) -> TilePixels {
     let mut tile = TilePixels::black(rect);
-    for (l, layer) in [&mut tile.total, &mut tile.surface, &mut tile.single_scatter]
-        .into_iter()
-        .enumerate()
+    for (l, layer) in [
+        &mut tile.total,
+        &mut tile.surface,
+        &mut tile.single_scatter,
+        &mut tile.stderr,
+    ]
+    .into_iter()
+    .enumerate()
     {
         for row in 0..rect.height {
             for col in 0..rect.width {
@@ -118,7 +123,8 @@ fn bad_tiles_are_rejected_and_leave_the_image_unchanged() {
             let buffer = match layer {
                 0 => &mut tile.total,
                 1 => &mut tile.surface,
-                _ => &mut tile.single_scatter,
+                2 => &mut tile.single_scatter,
+                _ => &mut tile.stderr,
             };
             buffer.resize((36 + delta) as usize, 0.0);
             let err = image.insert_tile(&tile).unwrap_err();
@@ -230,6 +236,9 @@ fn the_same_image_always_gives_the_same_bytes() {
             "single_scatter.B",
             "single_scatter.G",
             "single_scatter.R",
+            "stderr.B",
+            "stderr.G",
+            "stderr.R",
             "surface.B",
             "surface.G",
             "surface.R"

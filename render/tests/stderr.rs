@@ -1,0 +1,122 @@
+//! The `stderr` layer against the error it claims: the spread of a pixel's value over
+//! independent renders (other seeds) of the same scene.
+
+mod support;
+
+use glam::DVec3;
+use serde_json::json;
+use spindle_common::tile::TileRect;
+use spindle_render::{Assets, Scene, render_tile};
+use support::box_obj;
+
+/// A diffuse floor lit by a sphere light half hidden behind an opaque box (a penumbra across
+/// the pixels) and by a glass sphere's single scattering: 6 × 6 pixels at 16 spp, rendered with
+/// 48 seeds. Per pixel and channel, the measured error is the standard deviation of the total
+/// over the seeds; the claimed one is the root mean square of the `stderr` layer over the seeds.
+///
+/// Samples are stratified (Sobol pairs), which makes the error of a mean smaller than the
+/// independent-sample formula says, so `stderr` may only over-state it: the measured error,
+/// summed over the pixels, must lie between 0.3 and 1.15 times the claimed one (1.15 allows for
+/// the estimate's own spread over 48 seeds and 108 values: about 2 %).
+#[test]
+fn stderr_does_not_understate_the_error() {
+    let floor = box_obj(
+        DVec3::new(-10.0, -10.0, -1.0),
+        DVec3::new(10.0, 10.0, 0.0),
+        false,
+    );
+    let blocker = box_obj(
+        DVec3::new(-0.2, -3.0, 0.0),
+        DVec3::new(3.0, 3.0, 1.5),
+        false,
+    );
+    let assets = Assets::from([
+        ("floor.obj".to_string(), floor.into_bytes()),
+        ("blocker.obj".to_string(), blocker.into_bytes()),
+    ]);
+    let (width, height, seeds) = (6u32, 6u32, 48u64);
+    let mut renders = Vec::new();
+    for seed in 0..seeds {
+        let desc = serde_json::from_value(json!({
+            "camera": {"position": [-1.0, 0.0, 6.0], "look_at": [-1.0, 0.0, 0.0], "fov_y": 25},
+            "film": {"width": width, "height": height, "spp": 16, "seed": seed},
+            "lights": [{"type": "sphere", "center": [0.0, 0.0, 3.0], "radius": 0.6,
+                        "radiance": [10, 10, 10]}],
+            "objects": [
+                {"shape": {"type": "obj", "path": "floor.obj"},
+                 "material": {"type": "diffuse", "reflectance": [0.7, 0.7, 0.7]}},
+                {"shape": {"type": "obj", "path": "blocker.obj"},
+                 "material": {"type": "diffuse", "reflectance": [0.2, 0.2, 0.2]}},
+                {"shape": {"type": "icosphere", "radius": 0.5, "subdivisions": 1},
+                 "transform": {"translate": [-1.5, 0.0, 0.8]},
+                 "material": {"type": "dielectric", "eta": 1.5,
+                              "medium": {"sigma_t": [1, 1, 1], "albedo": [0.9, 0.9, 0.9]}}}
+            ]
+        }))
+        .unwrap();
+        let scene = Scene::build(&desc, &assets).unwrap();
+        renders.push(render_tile(
+            &scene,
+            TileRect {
+                x: 0,
+                y: 0,
+                width,
+                height,
+            },
+        ));
+    }
+    let values = renders[0].total.len();
+    let (mut measured, mut claimed) = (0.0, 0.0);
+    for i in 0..values {
+        let mean = renders.iter().map(|r| f64::from(r.total[i])).sum::<f64>() / seeds as f64;
+        let variance = renders
+            .iter()
+            .map(|r| (f64::from(r.total[i]) - mean).powi(2))
+            .sum::<f64>()
+            / (seeds - 1) as f64;
+        let claimed_variance = renders
+            .iter()
+            .map(|r| f64::from(r.stderr[i]).powi(2))
+            .sum::<f64>()
+            / seeds as f64;
+        measured += variance.sqrt();
+        claimed += claimed_variance.sqrt();
+    }
+    let ratio = measured / claimed;
+    println!(
+        "stderr: measured error over {seeds} seeds / claimed = {ratio:.3} \
+         (mean claimed {:.3e}, mean measured {:.3e})",
+        claimed / values as f64,
+        measured / values as f64
+    );
+    assert!(claimed > 0.0);
+    assert!(
+        (0.3..=1.15).contains(&ratio),
+        "measured / claimed = {ratio}"
+    );
+}
+
+/// With one sample per pixel the error cannot be estimated: the layer is 0, not a guess.
+#[test]
+fn one_sample_gives_no_estimate() {
+    let desc = serde_json::from_value(json!({
+        "camera": {"position": [0, 0, 5], "look_at": [0, 0, 0], "fov_y": 30},
+        "film": {"width": 3, "height": 3, "spp": 1},
+        "lights": [{"type": "sphere", "center": [0, 0, 3], "radius": 0.5, "radiance": [1, 1, 1]}],
+        "objects": [{"shape": {"type": "icosphere", "radius": 1, "subdivisions": 1},
+                     "material": {"type": "diffuse", "reflectance": [0.5, 0.5, 0.5]}}]
+    }))
+    .unwrap();
+    let scene = Scene::build(&desc, &Assets::new()).unwrap();
+    let tile = render_tile(
+        &scene,
+        TileRect {
+            x: 0,
+            y: 0,
+            width: 3,
+            height: 3,
+        },
+    );
+    assert!(tile.total.iter().any(|&v| v > 0.0));
+    assert!(tile.stderr.iter().all(|&v| v == 0.0));
+}
