@@ -61,6 +61,7 @@ fn scene(light: desc::Light, size: u32, spp: u32, seed: u64) -> desc::SceneDescr
             height: size,
             spp,
             seed,
+            target_error: None,
         },
         lights: vec![light],
         objects: vec![desc::Object {

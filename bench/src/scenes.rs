@@ -162,6 +162,7 @@ pub fn film(size: u32, spp: u32) -> desc::Film {
         height: size,
         spp,
         seed: 7,
+        target_error: None,
     }
 }
 

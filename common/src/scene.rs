@@ -54,13 +54,23 @@ fn default_up() -> Vec3 {
 pub struct Film {
     pub width: u32,
     pub height: u32,
-    /// Camera samples per pixel.
+    /// Camera samples per pixel; with `target_error`, the most a pixel may take.
     #[serde(default = "default_spp")]
     pub spp: u32,
     /// Seed of the counter-based random numbers; the same seed gives the same bits.
     #[serde(default)]
     pub seed: u64,
+    /// Adaptive sampling: a pixel stops after a batch of [`ADAPTIVE_BATCH`] samples once the
+    /// standard error of its luminance is at most this fraction of its luminance (or is 0), and
+    /// at `spp` samples in any case. `None`: every pixel takes `spp` samples.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target_error: Option<f64>,
 }
+
+/// Samples a pixel takes between two checks of its error under `film.target_error` (and
+/// before the first): enough for the variance estimate to mean something, and a multiple of the
+/// sampler's 16-sample strata.
+pub const ADAPTIVE_BATCH: u32 = 16;
 
 fn default_spp() -> u32 {
     4

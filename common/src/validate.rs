@@ -163,7 +163,11 @@ fn check_camera(path: &str, camera: &Camera) -> Check {
 fn check_film(path: &str, film: &Film) -> Check {
     check_count(&format!("{path}.width"), film.width, 1, MAX_IMAGE_SIDE)?;
     check_count(&format!("{path}.height"), film.height, 1, MAX_IMAGE_SIDE)?;
-    check_count(&format!("{path}.spp"), film.spp, 1, MAX_SPP)
+    check_count(&format!("{path}.spp"), film.spp, 1, MAX_SPP)?;
+    if let Some(target) = film.target_error {
+        check_open_range(&format!("{path}.target_error"), target, 0.0, 1.0)?;
+    }
+    Ok(())
 }
 
 fn check_light(path: &str, light: &Light) -> Check {

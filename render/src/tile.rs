@@ -5,6 +5,7 @@
 //! whichever tile, thread or worker renders it. Pixels run in parallel with rayon.
 
 use rayon::prelude::*;
+use spindle_common::scene::ADAPTIVE_BATCH;
 use spindle_common::stats::RenderStats;
 use spindle_common::tile::{TilePixels, TileRect};
 
@@ -24,28 +25,48 @@ pub struct PixelValue {
     pub stats: RenderStats,
 }
 
-/// Renders pixel `(x, y)` alone (also how `--pixel x,y` replays one pixel).
+/// Renders pixel `(x, y)` alone (also how `--pixel x,y` replays one pixel). With
+/// `film.target_error` the pixel takes samples in batches of [`ADAPTIVE_BATCH`] until its
+/// luminance's relative standard error reaches the target (or is 0), at most `film.spp`; which
+/// samples it takes depends only on the pixel, so any tiling gives the same bits.
 pub fn render_pixel(scene: &Scene, x: u32, y: u32) -> PixelValue {
     let film = scene.film();
     let mut stats = RenderStats::default();
     let mut sum = Radiance::default();
-    // Welford: the running mean of the total and the sum of squared deviations from it.
+    // Welford: the running mean of the total and the sum of squared deviations from it, per
+    // channel and for the luminance.
     let (mut mean, mut m2) = (Rgb::ZERO, Rgb::ZERO);
-    for s in 0..film.spp {
-        let mut sampler = Sampler::new(film.seed, x, y, s);
+    let (mut mean_y, mut m2_y) = (0.0, 0.0);
+    let mut taken = 0;
+    while taken < film.spp {
+        let mut sampler = Sampler::new(film.seed, x, y, taken);
         let [u, v] = sampler.next_2d();
         let ray = scene.camera().ray(x as f64 + u, y as f64 + v);
         stats.camera_rays += 1;
         let r = radiance(scene, &ray, &mut sampler, &mut stats);
         sum.surface += r.surface;
         sum.single_scatter += r.single_scatter;
+        taken += 1;
         let total = r.surface + r.single_scatter;
         let delta = total - mean;
-        mean += delta / f64::from(s + 1);
+        mean += delta / f64::from(taken);
         m2 += delta * (total - mean);
+        let luminance = LUMINANCE.dot(total);
+        let delta_y = luminance - mean_y;
+        mean_y += delta_y / f64::from(taken);
+        m2_y += delta_y * (luminance - mean_y);
+        if let Some(target) = film.target_error
+            && taken % ADAPTIVE_BATCH == 0
+        {
+            let n = f64::from(taken);
+            let stderr_y = (m2_y.max(0.0) / ((n - 1.0) * n)).sqrt();
+            if stderr_y <= target * mean_y.abs() {
+                break;
+            }
+        }
     }
-    let n = film.spp.max(1) as f64;
-    let stderr = if film.spp > 1 {
+    let n = f64::from(taken.max(1));
+    let stderr = if taken > 1 {
         (m2.max(Rgb::ZERO) / ((n - 1.0) * n)).map(f64::sqrt)
     } else {
         Rgb::ZERO
@@ -59,6 +80,9 @@ pub fn render_pixel(scene: &Scene, x: u32, y: u32) -> PixelValue {
         stats,
     }
 }
+
+/// Rec. 709 luminance weights of linear RGB, for the adaptive stopping rule.
+const LUMINANCE: Rgb = Rgb::new(0.2126, 0.7152, 0.0722);
 
 /// Renders the pixels of `rect`.
 pub fn render_tile(scene: &Scene, rect: TileRect) -> TilePixels {

@@ -375,6 +375,17 @@ fn film_values_are_checked() {
     // One bound for the CLI, the renderer and the coordinator.
     rejects("/film/spp", json!(65537), "film.spp", "<= 65536");
     assert!(with("/film/spp", json!(65536)).is_ok());
+    let mut film = json!({"width": 8, "height": 8, "spp": 256, "target_error": 0.02});
+    assert!(with("/film", film.clone()).is_ok());
+    for bad in [json!(0), json!(1.5), json!(-0.1)] {
+        film["target_error"] = bad;
+        rejects(
+            "/film",
+            film.clone(),
+            "film.target_error",
+            "must be in (0, 1)",
+        );
+    }
 }
 
 #[test]
