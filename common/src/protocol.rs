@@ -31,6 +31,7 @@
 //! | POST | `/v1/jobs/{id}/requeue` | client | → [`JobInfo`] (a failed or cancelled job) |
 //! | GET | `/v1/jobs/{id}/image.exr` | client | → the final EXR; 409 until the job is done |
 //! | GET | `/v1/jobs/{id}/image.png` | client | → a PNG preview of the tiles received so far |
+//! | GET | `/v1/jobs/{id}/tiles` | client | → [`JobTiles`]: each tile's rectangle, state and worker |
 //! | GET | `/v1/events` | client | Server-Sent Events, each a [`FarmEvent`]; `Last-Event-ID` resumes |
 //! | GET | `/v1/workers` | client | → [`WorkerList`] |
 //! | POST | `/v1/workers/{id}/drain` | client | (id or name) → [`WorkerList`] of the workers told to drain |
@@ -271,6 +272,42 @@ pub struct TileError {
     pub at_ms: i64,
     /// The worker's reason.
     pub message: String,
+}
+
+/// Where one tile of a job is, as `GET /v1/jobs/{id}/tiles` shows it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum TileState {
+    /// Not leased (never, or its lease lapsed or failed).
+    Queued,
+    /// A worker holds its lease.
+    Leased,
+    /// Its result is in.
+    Done,
+    /// Not done, and at least one worker reported a failure for it.
+    Failed,
+}
+
+/// One tile of a job, for the dashboard's tile map.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TileInfo {
+    /// The tile's index in the job (tiles are numbered centre first).
+    pub index: u32,
+    pub rect: TileRect,
+    pub state: TileState,
+    /// The worker holding the lease (leased), or the one that rendered it (done), when known.
+    pub worker: Option<String>,
+    /// Workers that reported a failure of this tile.
+    pub failures: u32,
+}
+
+/// Every tile of a job, by index.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct JobTiles {
+    pub job: u64,
+    pub tiles: Vec<TileInfo>,
 }
 
 /// A page of jobs, oldest first.

@@ -21,6 +21,10 @@ pub struct Args {
     /// Address to listen on. A non-loopback address needs both tokens, each at least 16 bytes.
     #[arg(long, env = "SPINDLE_LISTEN", default_value = "127.0.0.1:7878")]
     pub listen: SocketAddr,
+    /// Also serve the web dashboard (at `/`, with the API docs at `/docs`) and the same API on
+    /// this address; off when unset. Same rules as --listen (tokens, TLS).
+    #[arg(long, env = "SPINDLE_DASHBOARD_LISTEN")]
+    pub dashboard_listen: Option<SocketAddr>,
     /// Directory for the database, assets, tile results and images (created if missing).
     #[arg(long, env = "SPINDLE_DATA")]
     pub data: PathBuf,

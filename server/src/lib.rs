@@ -13,6 +13,7 @@ pub mod assemble;
 pub mod assets;
 pub mod auth;
 pub mod config;
+pub mod dashboard;
 pub mod db;
 pub mod error;
 pub mod events;
@@ -205,15 +206,63 @@ pub async fn run(
     listener: tokio::net::TcpListener,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> anyhow::Result<()> {
+    run_with_dashboard(config, listener, None, shutdown).await
+}
+
+/// [`run`], and with `dashboard`, also serves the web dashboard ([`dashboard`]) and the same
+/// API on that listener, under the same rules (tokens, TLS, limits). Both stop together.
+pub async fn run_with_dashboard(
+    config: Config,
+    listener: tokio::net::TcpListener,
+    dashboard: Option<tokio::net::TcpListener>,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> anyhow::Result<()> {
     let addr = listener.local_addr()?;
     config.check_listen_address(addr)?;
+    if let Some(dashboard) = &dashboard {
+        config
+            .check_listen_address(dashboard.local_addr()?)
+            .context("--dashboard-listen")?;
+    }
     let state = AppState::open(config).await?;
     let router = app(state.clone());
     tracing::info!(%addr, "spindle-server listening");
+    let stop = CancellationToken::new();
     let draining = state.clone();
-    let shutdown = async move {
+    let stopping = stop.clone();
+    tokio::spawn(async move {
         shutdown.await;
         draining.begin_shutdown();
+        stopping.cancel();
+    });
+    let api = serve::serve(
+        state.config(),
+        listener,
+        router.clone(),
+        stop.clone().cancelled_owned(),
+    );
+    let Some(dashboard) = dashboard else {
+        return api.await;
     };
-    serve::serve(state.config(), listener, router, shutdown).await
+    tracing::info!(addr = %dashboard.local_addr()?, "dashboard listening");
+    let pages = serve::serve(
+        state.config(),
+        dashboard,
+        dashboard::router(router),
+        stop.clone().cancelled_owned(),
+    );
+    // Either listener failing stops both.
+    let result = tokio::try_join!(
+        async {
+            let r = api.await;
+            stop.cancel();
+            r
+        },
+        async {
+            let r = pages.await;
+            stop.cancel();
+            r
+        }
+    );
+    result.map(|_| ())
 }

@@ -1,4 +1,5 @@
-//! `spindle-server`: parses the command line, sets up logging, binds, and runs the coordinator
+//! `spindle-server`: parses the command line, sets up logging, binds (the API, and the dashboard
+//! when asked), and runs the coordinator
 //! until Ctrl-C or SIGTERM.
 
 use anyhow::Context;
@@ -13,12 +14,20 @@ async fn main() -> anyhow::Result<()> {
         )
         .init();
     let args = Args::from_process();
-    let listen = args.listen;
+    let (listen, dashboard_listen) = (args.listen, args.dashboard_listen);
     let config = args.into_config()?;
     let listener = tokio::net::TcpListener::bind(listen)
         .await
         .with_context(|| format!("binding {listen}"))?;
-    spindle_server::run(config, listener, shutdown_signal()).await
+    let dashboard = match dashboard_listen {
+        Some(addr) => Some(
+            tokio::net::TcpListener::bind(addr)
+                .await
+                .with_context(|| format!("binding --dashboard-listen {addr}"))?,
+        ),
+        None => None,
+    };
+    spindle_server::run_with_dashboard(config, listener, dashboard, shutdown_signal()).await
 }
 
 async fn shutdown_signal() {

@@ -214,6 +214,8 @@ pub struct Farm {
     pub http: reqwest::Client,
     /// Set: the coordinator serves HTTPS with this CA's certificate, and workers trust it.
     pub tls: Option<TestCa>,
+    /// Set: the coordinator also serves the dashboard (`--dashboard-listen`) on this port.
+    pub dashboard_port: Option<u16>,
 }
 
 impl Farm {
@@ -224,6 +226,15 @@ impl Farm {
 
     /// [`Farm::start`], serving HTTPS with a certificate of a throwaway CA when `tls`.
     pub async fn start_with(lease_ttl_s: f64, tls: bool) -> Result<Farm> {
+        Farm::start_full(lease_ttl_s, tls, false).await
+    }
+
+    /// [`Farm::start`] with the dashboard listener on a port of its own ([`Farm::dashboard`]).
+    pub async fn start_with_dashboard(lease_ttl_s: f64) -> Result<Farm> {
+        Farm::start_full(lease_ttl_s, false, true).await
+    }
+
+    async fn start_full(lease_ttl_s: f64, tls: bool, dashboard: bool) -> Result<Farm> {
         let dir = tempfile::tempdir()?;
         let tls = if tls {
             Some(TestCa::create(dir.path())?)
@@ -248,6 +259,7 @@ impl Farm {
             server: None,
             workers: Vec::new(),
             http,
+            dashboard_port: dashboard.then(free_port),
         };
         farm.start_server().await?;
         Ok(farm)
@@ -265,6 +277,12 @@ impl Farm {
         format!("{}{}", self.base(), path)
     }
 
+    /// `http://127.0.0.1:PORT` of the dashboard listener, if it was asked for.
+    pub fn dashboard(&self) -> Option<String> {
+        self.dashboard_port
+            .map(|port| format!("http://127.0.0.1:{port}"))
+    }
+
     /// Starts (or restarts) the coordinator on the farm's port and data directory, and waits
     /// until it is ready.
     pub async fn start_server(&mut self) -> Result<()> {
@@ -275,6 +293,10 @@ impl Farm {
             .arg(self.dir.path().join("data"))
             .arg("--lease-ttl-s")
             .arg(self.lease_ttl_s.to_string());
+        if let Some(port) = self.dashboard_port {
+            cmd.arg("--dashboard-listen")
+                .arg(format!("127.0.0.1:{port}"));
+        }
         if let Some(ca) = &self.tls {
             cmd.arg("--tls-cert")
                 .arg(&ca.server_cert)

@@ -6,7 +6,8 @@
 //! [`router`] registers every listed handler with `utoipa_axum`, which routes the path and
 //! documents it in one step. So the router and the document cannot disagree, and a role is
 //! written once: it selects both the bearer-token middleware and the document's security
-//! requirement. Modules: `service`, `assets`, `jobs` (client job routes), `events` (the live
+//! requirement. Modules: `service`, `assets`, `jobs` (client job routes), `tiles` (a job's
+//! tile map), `events` (the live
 //! event stream), `workers` (the
 //! operators' worker routes), `work` (the routes workers call). The request and response
 //! shapes are documented in `spindle_common::protocol`.
@@ -15,6 +16,7 @@ mod assets;
 mod events;
 mod jobs;
 mod service;
+mod tiles;
 mod work;
 mod workers;
 
@@ -108,6 +110,7 @@ fn routes_and_document(state: &AppState) -> (Router<AppState>, utoipa::openapi::
         service::routes(),
         assets::routes(limits),
         jobs::routes(),
+        tiles::routes(),
         events::routes(),
         workers::routes(),
         work::routes(limits),
