@@ -137,6 +137,13 @@ pub(crate) async fn finish(state: AppState, id: u64) {
             Ok(()) => {
                 if let Err(e) = state.ledger().finish_assembly(id) {
                     tracing::error!(job = id, error = %e, "recording the end of assembly failed");
+                    break;
+                }
+                // The image holds every tile now; their files are not needed any more.
+                let store = state.tile_store().clone();
+                let removed = tokio::task::spawn_blocking(move || store.remove_tiles(id)).await;
+                if let Ok(Err(e)) = removed {
+                    tracing::warn!(job = id, error = %e, "removing the tiles of a done job failed");
                 }
                 break;
             }

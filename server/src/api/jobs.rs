@@ -62,7 +62,19 @@ async fn submit_job(
     let limits = &state.config().limits;
     admission::admit(&submit, limits, state.assets()).await?;
     let new = NewJob::new(submit, key)?;
-    let (info, created) = state.ledger().submit(new, limits.max_active_jobs)?;
+    let (info, created) = {
+        let mut ledger = state.ledger();
+        // Checked again under the lock the sweep deletes unreferenced assets under: once the
+        // job is stored, its assets are kept as long as it is.
+        for (path, hash) in &new.spec.assets {
+            if !state.assets().has(hash)? {
+                return Err(Error::BadRequest(format!(
+                    "assets.{path}: asset {hash} is not uploaded (PUT /v1/assets/{hash} first)"
+                )));
+            }
+        }
+        ledger.submit(new, limits.max_active_jobs)?
+    };
     if created {
         state.work_available();
         Ok((StatusCode::CREATED, Json(info)))
@@ -273,7 +285,7 @@ async fn image_exr(
                 "job {id} is {} ({} of {} tiles); the image is ready when the job is done",
                 job.state.as_str(),
                 job.tiles_done,
-                job.tiles.len()
+                job.tiles_total
             )));
         }
     }
@@ -289,13 +301,25 @@ async fn image_png(
     State(state): State<AppState>,
     ApiPath(id): ApiPath<u64>,
 ) -> Result<Response, Error> {
-    let (spec, tiles) = {
+    let (spec, done, tiles) = {
         let ledger = state.ledger();
-        (ledger.job(id)?.spec.clone(), ledger.done_tiles(id)?)
+        let job = ledger.job(id)?;
+        let done = job.state == JobState::Done;
+        (job.spec.clone(), done, ledger.done_tiles(id)?)
     };
     let store = state.tile_store().clone();
-    let png = tokio::task::spawn_blocking(move || assemble::preview_png(&store, id, &spec, &tiles))
-        .await
-        .map_err(anyhow::Error::from)??;
+    let png = tokio::task::spawn_blocking(move || {
+        if done {
+            // A done job's tiles are gone: its preview is made from its image.
+            let image = spindle_common::image::read_exr(store.image_path(id)).map_err(|e| {
+                tracing::error!(job = id, error = %e, "reading the image of a done job failed");
+                anyhow::anyhow!("the image of job {id} cannot be read")
+            })?;
+            return Ok(image.to_png_preview_bytes()?);
+        }
+        assemble::preview_png(&store, id, &spec, &tiles)
+    })
+    .await
+    .map_err(anyhow::Error::from)??;
     Ok(([(header::CONTENT_TYPE, "image/png")], png).into_response())
 }
