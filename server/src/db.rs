@@ -78,6 +78,8 @@ const MIGRATIONS: &[&str] = &[
     ALTER TABLE jobs ADD COLUMN tiles_done INTEGER;
     ALTER TABLE jobs ADD COLUMN stats TEXT;
 "#,
+    // The SHA-256 of a done job's EXR (hex), recorded when it was written; NULL before.
+    "ALTER TABLE jobs ADD COLUMN image_sha256 TEXT;",
 ];
 
 /// Opens (creating if needed) the database at `path` and brings its schema up to date.
@@ -128,6 +130,8 @@ pub struct JobRow {
     pub finished_ms: Option<i64>,
     /// A done job's tile count and statistics, recorded when its tile rows were deleted.
     pub totals: Option<(u32, RenderStats)>,
+    /// The SHA-256 of a done job's EXR, hex.
+    pub image_sha256: Option<String>,
 }
 
 /// A tile row as stored.
@@ -182,7 +186,8 @@ pub fn insert_job(conn: &Connection, row: &JobRow) -> rusqlite::Result<u64> {
 pub fn load_jobs(conn: &Connection) -> anyhow::Result<Vec<JobRow>> {
     let mut stmt = conn.prepare(
         "SELECT id, spec, priority, state, error, idempotency_key, request_hash, created_ms,
-                started_ms, finished_ms, requires, name, submitter, tiles_done, stats
+                started_ms, finished_ms, requires, name, submitter, tiles_done, stats,
+                image_sha256
          FROM jobs ORDER BY id",
     )?;
     let rows = stmt.query_map([], |r| {
@@ -202,6 +207,7 @@ pub fn load_jobs(conn: &Connection) -> anyhow::Result<Vec<JobRow>> {
                 started_ms: r.get(8)?,
                 finished_ms: r.get(9)?,
                 totals: None,
+                image_sha256: r.get(15)?,
             },
             r.get::<_, String>(3)?,
             r.get::<_, Option<u32>>(13)?,
@@ -296,16 +302,24 @@ pub fn done_hash(conn: &Connection, job: u64, index: u32) -> rusqlite::Result<Op
     .map(Option::flatten)
 }
 
-/// Records a done job's totals and deletes its tile rows: its image holds the pixels now.
+/// Records a done job's totals (and its image's SHA-256, when just written) and deletes its
+/// tile rows: its image holds the pixels now.
 pub fn settle_done_job(
     tx: &Transaction<'_>,
     job: u64,
     tiles_done: u32,
     stats: &RenderStats,
+    image_sha256: Option<&str>,
 ) -> anyhow::Result<()> {
     tx.execute(
-        "UPDATE jobs SET tiles_done = ?2, stats = ?3 WHERE id = ?1",
-        params![job as i64, tiles_done, serde_json::to_string(stats)?],
+        "UPDATE jobs SET tiles_done = ?2, stats = ?3, image_sha256 = COALESCE(?4, image_sha256)
+         WHERE id = ?1",
+        params![
+            job as i64,
+            tiles_done,
+            serde_json::to_string(stats)?,
+            image_sha256
+        ],
     )?;
     tx.execute("DELETE FROM tiles WHERE job_id = ?1", [job as i64])?;
     Ok(())
@@ -562,6 +576,7 @@ mod tests {
             started_ms: None,
             finished_ms: None,
             totals: None,
+            image_sha256: None,
         };
         let id = insert_job(&conn, &row).unwrap();
         record_lease(&conn, id, 7, 1, 42).unwrap();

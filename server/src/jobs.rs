@@ -152,6 +152,9 @@ pub struct Job {
     pub recent_errors: VecDeque<TileError>,
     /// Every tile is in and the final image is being written.
     pub assembling: bool,
+    /// The SHA-256 of the final EXR as written (hex), once the job is done; `None` for a job
+    /// done before digests were recorded.
+    pub image_sha256: Option<String>,
 }
 
 /// One tile of a job.
@@ -222,6 +225,7 @@ impl Job {
             failures: 0,
             recent_errors: VecDeque::new(),
             assembling: false,
+            image_sha256: None,
         }
     }
 
@@ -406,6 +410,7 @@ impl Ledger {
             job.error = row.error;
             job.started_ms = row.started_ms;
             job.finished_ms = row.finished_ms;
+            job.image_sha256 = row.image_sha256;
             if job.state.is_finished() {
                 job.release_tiles();
                 let (done, stats) = match row.totals {
@@ -417,7 +422,7 @@ impl Ledger {
                 if job.state == JobState::Done && row.totals.is_none() {
                     // Done before totals were recorded: its tile rows are not needed.
                     let tx = db.transaction()?;
-                    db::settle_done_job(&tx, row.id, done, &stats)?;
+                    db::settle_done_job(&tx, row.id, done, &stats, None)?;
                     tx.commit()?;
                 }
             } else {
@@ -535,6 +540,7 @@ impl Ledger {
             started_ms: None,
             finished_ms: None,
             totals: None,
+            image_sha256: None,
         };
         let id = db::insert_job(&self.db, &row)?;
         let mut job = Job::new(id, Arc::new(new.spec), new.priority, now);
@@ -979,9 +985,9 @@ impl Ledger {
         ids
     }
 
-    /// Records the end of assembly: the image is written and the job is done (unless it was
-    /// cancelled meanwhile).
-    pub fn finish_assembly(&mut self, id: u64) -> Result<(), Error> {
+    /// Records the end of assembly: the image, whose SHA-256 is `image_sha256` (hex), is
+    /// written and the job is done (unless it was cancelled meanwhile).
+    pub fn finish_assembly(&mut self, id: u64, image_sha256: &str) -> Result<(), Error> {
         let Ok(job) = self.job(id) else {
             return Ok(()); // Deleted meanwhile.
         };
@@ -992,9 +998,10 @@ impl Ledger {
         let (started, done, stats) = (job.started_ms, job.tiles_done, job.stats);
         let tx = self.db.transaction()?;
         db::set_job_state(&tx, id, JobState::Done, None, started, Some(now))?;
-        db::settle_done_job(&tx, id, done, &stats)?;
+        db::settle_done_job(&tx, id, done, &stats, Some(image_sha256))?;
         tx.commit()?;
         let job = self.job_mut(id)?;
+        job.image_sha256 = Some(image_sha256.to_string());
         job.state = JobState::Done;
         job.error = None;
         job.finished_ms = Some(now);

@@ -4,8 +4,9 @@
 use axum::Json;
 use axum::extract::rejection::QueryRejection;
 use axum::extract::{Query, State};
-use axum::http::{HeaderMap, StatusCode, header};
+use axum::http::{HeaderMap, HeaderName, StatusCode, header};
 use axum::response::{IntoResponse, Response};
+use base64::Engine;
 use serde::Deserialize;
 use spindle_common::protocol::{
     ApiError, DEFAULT_JOB_PAGE, IDEMPOTENCY_KEY_HEADER, JobInfo, JobList, JobPatch, JobState,
@@ -289,8 +290,51 @@ async fn image_exr(
             )));
         }
     }
-    let bytes = tokio::fs::read(state.tile_store().image_path(id)).await?;
-    Ok(([(header::CONTENT_TYPE, "image/x-exr")], bytes).into_response())
+    let (bytes, sha256) = final_image(&state, id).await?;
+    let digest = base64::engine::general_purpose::STANDARD.encode(&sha256);
+    let hex: String = sha256.iter().map(|b| format!("{b:02x}")).collect();
+    Ok((
+        [
+            (header::CONTENT_TYPE, "image/x-exr".to_string()),
+            (header::ETAG, format!("\"{hex}\"")),
+            (
+                HeaderName::from_static("repr-digest"),
+                format!("sha-256=:{digest}:"),
+            ),
+        ],
+        bytes,
+    )
+        .into_response())
+}
+
+/// A done job's EXR and the SHA-256 of its bytes, checked against the digest recorded when it
+/// was written: bytes changed on disk are never served (500 naming the job). A job done before
+/// digests were recorded is served as read.
+async fn final_image(state: &AppState, id: u64) -> Result<(Vec<u8>, Vec<u8>), Error> {
+    let recorded = state.ledger().job(id)?.image_sha256.clone();
+    let path = state.tile_store().image_path(id);
+    tokio::task::spawn_blocking(move || {
+        use sha2::Digest;
+        let bytes = std::fs::read(&path).map_err(|e| {
+            tracing::error!(job = id, path = %path.display(), error = %e, "reading a job's image failed");
+            Error::Damaged(format!("the image of job {id} cannot be read on the coordinator"))
+        })?;
+        let sha256 = sha2::Sha256::digest(&bytes).to_vec();
+        let hex: String = sha256.iter().map(|b| format!("{b:02x}")).collect();
+        if let Some(recorded) = recorded
+            && recorded != hex
+        {
+            tracing::error!(job = id, path = %path.display(), %recorded, actual = %hex,
+                "a job's image changed on disk since it was written; refusing to serve it");
+            return Err(Error::Damaged(format!(
+                "the image of job {id} is damaged on the coordinator's disk (its SHA-256 is not \
+                 the one recorded when it was written); it is not served — render the job again"
+            )));
+        }
+        Ok((bytes, sha256))
+    })
+    .await
+    .map_err(anyhow::Error::from)?
 }
 
 /// A PNG preview of the tiles received so far.
@@ -307,13 +351,18 @@ async fn image_png(
         let done = job.state == JobState::Done;
         (job.spec.clone(), done, ledger.done_tiles(id)?)
     };
+    // A done job's tiles are gone: its preview is made from its (checked) image.
+    let exr = if done {
+        Some(final_image(&state, id).await?.0)
+    } else {
+        None
+    };
     let store = state.tile_store().clone();
     let png = tokio::task::spawn_blocking(move || {
-        if done {
-            // A done job's tiles are gone: its preview is made from its image.
-            let image = spindle_common::image::read_exr(store.image_path(id)).map_err(|e| {
-                tracing::error!(job = id, error = %e, "reading the image of a done job failed");
-                anyhow::anyhow!("the image of job {id} cannot be read")
+        if let Some(exr) = exr {
+            let image = spindle_common::image::Image::from_exr_bytes(&exr).map_err(|e| {
+                tracing::error!(job = id, error = %e, "decoding the image of a done job failed");
+                anyhow::anyhow!("the image of job {id} cannot be decoded")
             })?;
             return Ok(image.to_png_preview_bytes()?);
         }
