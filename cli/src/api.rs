@@ -16,7 +16,8 @@ use spindle_common::protocol::{
     MissingAssetsRequest, MissingAssetsResponse, SubmitJob, WorkerList,
 };
 
-/// Tries of a request whose failure was transient (connection refused, 5xx).
+/// Tries of a request whose failure was transient (connection refused, 502, 503, 504; a 500
+/// or 507 says something a retry within seconds does not change, such as a damaged image).
 const TRIES: u32 = 5;
 /// Requests other than asset and image transfers.
 const REQUEST_TIMEOUT: Duration = Duration::from_secs(60);
@@ -204,10 +205,18 @@ impl Api {
                     .timeout(TRANSFER_TIMEOUT)
             })
             .await?;
+        let digest = resp
+            .headers()
+            .get("repr-digest")
+            .map(|v| v.to_str().unwrap_or("(not text)").to_string());
         let bytes = resp
             .bytes()
             .await
             .with_context(|| format!("downloading {name} of job {id} from {}", self.base))?;
+        if file == ImageFile::Exr {
+            check_repr_digest(digest.as_deref(), &bytes)
+                .map_err(|problem| anyhow!("{name} of job {id} from {}: {problem}", self.base))?;
+        }
         Ok(bytes.to_vec())
     }
 
@@ -252,7 +261,13 @@ impl Api {
                         status,
                         message,
                     };
-                    if !status.is_server_error() || tries >= TRIES {
+                    let transient = matches!(
+                        status,
+                        StatusCode::BAD_GATEWAY
+                            | StatusCode::SERVICE_UNAVAILABLE
+                            | StatusCode::GATEWAY_TIMEOUT
+                    );
+                    if !transient || tries >= TRIES {
                         return Err(err.into());
                     }
                     anyhow::Error::from(err)
@@ -297,4 +312,54 @@ pub enum ImageFile {
 /// The HTTP status of a failed request, if the coordinator answered at all.
 pub fn status_of(e: &anyhow::Error) -> Option<StatusCode> {
     e.downcast_ref::<StatusError>().map(|s| s.status)
+}
+
+/// Checks downloaded bytes against the coordinator's `Repr-Digest` header (RFC 9530; its
+/// `sha-256` member), which it sends with every final image.
+pub fn check_repr_digest(header: Option<&str>, bytes: &[u8]) -> Result<(), String> {
+    use base64::Engine;
+    use sha2::Digest;
+    let Some(header) = header else {
+        return Err(
+            "the coordinator sent no Repr-Digest header, so the download cannot be \
+                    checked; nothing was written"
+                .into(),
+        );
+    };
+    let expected = header
+        .split(',')
+        .find_map(|member| member.trim().strip_prefix("sha-256=:")?.strip_suffix(':'))
+        .and_then(|b64| base64::engine::general_purpose::STANDARD.decode(b64).ok())
+        .ok_or_else(|| format!("Repr-Digest {header:?} has no sha-256 digest"))?;
+    if sha2::Sha256::digest(bytes).as_slice() != expected.as_slice() {
+        return Err(format!(
+            "the {} bytes received do not match the coordinator's SHA-256 digest (Repr-Digest); \
+             the image is damaged, nothing was written",
+            bytes.len()
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::check_repr_digest;
+
+    #[test]
+    fn a_download_must_match_its_repr_digest() {
+        // SHA-256 of "abc" (FIPS 180-2), base64.
+        let abc = "sha-256=:ungWv48Bz+pBQUDeXa4iI7ADYaOWF3qctBD/YfIAFa0=:";
+        assert_eq!(check_repr_digest(Some(abc), b"abc"), Ok(()));
+        let with_others = format!("sha-512=:AAAA:, {abc}");
+        assert_eq!(check_repr_digest(Some(&with_others), b"abc"), Ok(()));
+        let err = check_repr_digest(Some(abc), b"abd").unwrap_err();
+        assert!(
+            err.contains("do not match") && err.contains("damaged"),
+            "{err}"
+        );
+        let err = check_repr_digest(None, b"abc").unwrap_err();
+        assert!(err.contains("no Repr-Digest"), "{err}");
+        let err = check_repr_digest(Some("md5=:x:"), b"abc").unwrap_err();
+        assert!(err.contains("has no sha-256"), "{err}");
+    }
 }

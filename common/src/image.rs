@@ -280,7 +280,8 @@ impl Image {
     }
 
     /// Reads an EXR file written by [`Image::write_exr`] (or any one-part EXR with the same
-    /// twelve float channels), with its text header attributes.
+    /// twelve float channels; without the `stderr` ones, as spindle wrote before that layer,
+    /// `stderr` is 0), with its text header attributes.
     pub fn from_exr_bytes(bytes: &[u8]) -> Result<Image, ImageError> {
         read_exr_from(bytes, "(in memory)")
     }
@@ -466,12 +467,12 @@ fn read_exr_from(bytes: &[u8], path: &str) -> Result<Image, ImageError> {
     for (prefix, layer_name) in EXR_PREFIXES.iter().zip(LAYER_NAMES) {
         for (c, name) in RGB.iter().enumerate() {
             let full = format!("{prefix}{name}");
-            let channel = layer
-                .channel_data
-                .list
-                .iter()
-                .find(|ch| ch.name.eq(&full))
-                .ok_or_else(|| exr_error(format!("no channel `{full}`")))?;
+            let found = layer.channel_data.list.iter().find(|ch| ch.name.eq(&full));
+            // Files written before the `stderr` layer existed have none: it reads as 0.
+            if found.is_none() && layer_name == "stderr" {
+                continue;
+            }
+            let channel = found.ok_or_else(|| exr_error(format!("no channel `{full}`")))?;
             let exr::prelude::FlatSamples::F32(samples) = &channel.sample_data else {
                 return Err(exr_error(format!("channel `{full}` is not 32-bit float")));
             };

@@ -33,6 +33,8 @@ pub async fn admit(submit: &SubmitJob, limits: &Limits, assets: &AssetStore) -> 
                 "assets.{path}: {hash:?} is not a blake3 hash (64 lowercase hex digits)"
             )));
         }
+        // Renewed against the sweep: the job is about to name it.
+        assets.touch(hash)?;
     }
     let obj_triangles = obj_triangles(submit, assets).await?;
     limits

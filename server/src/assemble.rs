@@ -81,14 +81,15 @@ pub fn attributes(spec: &JobSpec, stats: &RenderStats) -> anyhow::Result<Vec<(St
     Ok(attributes)
 }
 
-/// Writes the final EXR of a job whose tiles are all in, atomically.
+/// Writes the final EXR of a job whose tiles are all in, atomically; returns the SHA-256 of
+/// its bytes (hex), which clients check it by.
 pub fn write_final(
     store: &TileStore,
     job: u64,
     spec: &JobSpec,
     tiles: &[(u32, String)],
     stats: &RenderStats,
-) -> Result<(), AssembleError> {
+) -> Result<String, AssembleError> {
     let expected = spindle_common::tile::split_centre_first(
         spec.scene.film.width,
         spec.scene.film.height,
@@ -104,10 +105,19 @@ pub fn write_final(
         return Err(AssembleError::Damaged(damaged));
     }
     image.attributes.extend(attributes(spec, stats)?);
-    image
-        .write_exr(store.image_path(job))
+    let bytes = image.to_exr_bytes().map_err(anyhow::Error::from)?;
+    spindle_common::atomic_write::write(store.image_path(job), &bytes)
         .map_err(anyhow::Error::from)?;
-    Ok(())
+    Ok(sha256_hex(&bytes))
+}
+
+/// The SHA-256 of `bytes`, lowercase hex.
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    use sha2::Digest;
+    sha2::Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
 }
 
 /// Writes the final image of job `id`, whose tiles are all in, and records the job done;
@@ -134,9 +144,16 @@ pub(crate) async fn finish(state: AppState, id: u64) {
                 .await
                 .unwrap_or_else(|e| Err(AssembleError::Transient(e.into())));
         match result {
-            Ok(()) => {
-                if let Err(e) = state.ledger().finish_assembly(id) {
+            Ok(digest) => {
+                if let Err(e) = state.ledger().finish_assembly(id, &digest) {
                     tracing::error!(job = id, error = %e, "recording the end of assembly failed");
+                    break;
+                }
+                // The image holds every tile now; their files are not needed any more.
+                let store = state.tile_store().clone();
+                let removed = tokio::task::spawn_blocking(move || store.remove_tiles(id)).await;
+                if let Ok(Err(e)) = removed {
+                    tracing::warn!(job = id, error = %e, "removing the tiles of a done job failed");
                 }
                 break;
             }

@@ -5,10 +5,16 @@
 //! `DATA/assets/<hash>` after checking the hash of what arrived, and never opens a path a
 //! client gave it. Uploads stream to a temporary file (so a large mesh is never held in
 //! memory), hashing as they go; a mismatch is a 400 and leaves nothing behind.
+//!
+//! An asset no job names is deleted by the sweep ([`crate::retention`]) once its file is older
+//! than the grace period. Asking whether it is missing, uploading it again and admitting a job
+//! that names it all renew the file's time ([`AssetStore::touch`]), so a client that uploads
+//! first and submits next never sees its asset vanish in between.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::path::PathBuf;
 use std::sync::Mutex;
+use std::time::{Duration, SystemTime};
 
 use axum::body::Body;
 use futures_util::TryStreamExt;
@@ -55,6 +61,51 @@ impl AssetStore {
     /// Is the asset stored?
     pub fn has(&self, hash: &str) -> Result<bool, Error> {
         Ok(self.file(hash)?.is_file())
+    }
+
+    /// Renews the asset's time (against the sweep) if it is stored; returns whether it is.
+    pub fn touch(&self, hash: &str) -> Result<bool, Error> {
+        let path = self.file(hash)?;
+        match std::fs::File::open(&path) {
+            Ok(file) => {
+                file.set_modified(std::time::SystemTime::now())?;
+                Ok(true)
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(false),
+            Err(e) => Err(e.into()),
+        }
+    }
+
+    /// Deletes every stored asset not in `referenced` whose file is older than `grace`; returns
+    /// how many. Run under the ledger's lock, so no job naming one can be stored meanwhile.
+    pub fn remove_unreferenced(
+        &self,
+        referenced: &HashSet<String>,
+        grace: Duration,
+    ) -> std::io::Result<usize> {
+        let now = SystemTime::now();
+        let mut removed = 0;
+        for entry in std::fs::read_dir(&self.dir)? {
+            let entry = entry?;
+            let Ok(name) = entry.file_name().into_string() else {
+                continue;
+            };
+            if !is_hash(&name) || referenced.contains(&name) {
+                continue;
+            }
+            let modified = entry.metadata()?.modified()?;
+            if now.duration_since(modified).unwrap_or_default() < grace {
+                continue;
+            }
+            match std::fs::remove_file(entry.path()) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(e),
+                _ => {}
+            }
+            self.lock_cache().remove(&name);
+            tracing::info!(hash = %name, "unreferenced asset deleted");
+            removed += 1;
+        }
+        Ok(removed)
     }
 
     /// The asset's bytes.

@@ -82,6 +82,21 @@ pub struct Args {
     /// ingress, since tokens and tiles would otherwise cross the network unencrypted.
     #[arg(long, env = "SPINDLE_ALLOW_PLAIN_HTTP")]
     pub allow_plain_http: bool,
+    /// How long a done, cancelled or failed job is kept (its rows, tiles and image) before the
+    /// sweep deletes it: `7d`, `12h`, `30min`, `500ms`…; `0` keeps finished jobs forever.
+    #[arg(long, env = "SPINDLE_KEEP_FINISHED", default_value = "7d", value_parser = humantime::parse_duration)]
+    pub keep_finished: Duration,
+    /// How long an uploaded asset that no job names is kept (so a client can upload its assets,
+    /// then submit the job).
+    #[arg(long, env = "SPINDLE_ASSET_GRACE", default_value = "1h", value_parser = humantime::parse_duration)]
+    pub asset_grace: Duration,
+    /// How long a lost worker (not heard from) is kept before it is forgotten; it is listed as
+    /// lost meanwhile (at most one hour).
+    #[arg(long, env = "SPINDLE_KEEP_LOST_WORKERS", default_value = "1h", value_parser = humantime::parse_duration)]
+    pub keep_lost_workers: Duration,
+    /// How often the sweep deletes what is kept no longer.
+    #[arg(long, env = "SPINDLE_SWEEP_INTERVAL", default_value = "1min", value_parser = humantime::parse_duration)]
+    pub sweep_interval: Duration,
     /// The token flags whose value came from the command line (see [`Args::from_process`]).
     #[arg(skip)]
     pub tokens_in_argv: Vec<&'static str>,
@@ -152,6 +167,32 @@ pub struct Config {
     pub tls: Option<TlsFiles>,
     /// Plain HTTP on a non-loopback address was asked for (a TLS-terminating proxy in front).
     pub allow_plain_http: bool,
+    /// What is kept, and for how long (see [`crate::retention`]).
+    pub retention: Retention,
+}
+
+/// How long finished jobs, unreferenced assets and lost workers are kept.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Retention {
+    /// Finished jobs, from when they finished; `None`: forever.
+    pub keep_finished: Option<Duration>,
+    /// Assets no job names, from their upload (or last admission of a job naming them).
+    pub asset_grace: Duration,
+    /// Lost workers, from when they were last heard from.
+    pub keep_lost_workers: Duration,
+    /// The period of the sweep.
+    pub sweep_interval: Duration,
+}
+
+impl Default for Retention {
+    fn default() -> Self {
+        Retention {
+            keep_finished: Some(Duration::from_secs(7 * 24 * 3600)),
+            asset_grace: Duration::from_secs(3600),
+            keep_lost_workers: Duration::from_secs(3600),
+            sweep_interval: Duration::from_secs(60),
+        }
+    }
 }
 
 impl Config {
@@ -171,6 +212,7 @@ impl Config {
             max_leases_per_worker: DEFAULT_MAX_LEASES_PER_WORKER,
             tls: None,
             allow_plain_http: false,
+            retention: Retention::default(),
         }
     }
 
@@ -270,6 +312,15 @@ impl Args {
         if self.max_leases_per_worker == 0 {
             bail!("--max-leases-per-worker: must be at least 1");
         }
+        if self.sweep_interval < Duration::from_millis(10) {
+            bail!("--sweep-interval: must be at least 10ms");
+        }
+        let retention = Retention {
+            keep_finished: (!self.keep_finished.is_zero()).then_some(self.keep_finished),
+            asset_grace: self.asset_grace,
+            keep_lost_workers: self.keep_lost_workers,
+            sweep_interval: self.sweep_interval,
+        };
         let limits = Limits {
             max_active_jobs: self.max_jobs,
             ..Limits::default()
@@ -287,6 +338,7 @@ impl Args {
             max_leases_per_worker: self.max_leases_per_worker,
             tls: crate::tls::files(self.tls_cert, self.tls_key)?,
             allow_plain_http: self.allow_plain_http,
+            retention,
         };
         config.check_listen_address(self.listen)?;
         Ok(config)
@@ -461,5 +513,30 @@ mod tests {
             }
         }
         assert!(parse(&["--max-connections", "0"]).is_err());
+    }
+
+    #[test]
+    fn retention_durations_parse_and_zero_keeps_forever() {
+        let default = parse(&[]).unwrap().retention;
+        assert_eq!(default, Retention::default());
+        assert_eq!(default.keep_finished, Some(Duration::from_secs(7 * 86_400)));
+        let r = parse(&[
+            "--keep-finished",
+            "0",
+            "--asset-grace",
+            "300ms",
+            "--keep-lost-workers",
+            "2h",
+            "--sweep-interval",
+            "200ms",
+        ])
+        .unwrap()
+        .retention;
+        assert_eq!(r.keep_finished, None, "0 keeps finished jobs forever");
+        assert_eq!(r.asset_grace, Duration::from_millis(300));
+        assert_eq!(r.keep_lost_workers, Duration::from_secs(7200));
+        assert_eq!(r.sweep_interval, Duration::from_millis(200));
+        assert!(parse(&["--sweep-interval", "0"]).is_err());
+        assert!(Args::try_parse_from(["s", "--data", "/x", "--keep-finished", "soon"]).is_err());
     }
 }

@@ -72,6 +72,14 @@ const MIGRATIONS: &[&str] = &[
     ALTER TABLE jobs ADD COLUMN name TEXT NOT NULL DEFAULT '';
     ALTER TABLE jobs ADD COLUMN submitter TEXT;
 "#,
+    // A done job's tile count and summed statistics: its tile rows are deleted once its image
+    // is written (NULL for jobs not done, or done before this column).
+    r#"
+    ALTER TABLE jobs ADD COLUMN tiles_done INTEGER;
+    ALTER TABLE jobs ADD COLUMN stats TEXT;
+"#,
+    // The SHA-256 of a done job's EXR (hex), recorded when it was written; NULL before.
+    "ALTER TABLE jobs ADD COLUMN image_sha256 TEXT;",
 ];
 
 /// Opens (creating if needed) the database at `path` and brings its schema up to date.
@@ -120,6 +128,10 @@ pub struct JobRow {
     pub created_ms: i64,
     pub started_ms: Option<i64>,
     pub finished_ms: Option<i64>,
+    /// A done job's tile count and statistics, recorded when its tile rows were deleted.
+    pub totals: Option<(u32, RenderStats)>,
+    /// The SHA-256 of a done job's EXR, hex.
+    pub image_sha256: Option<String>,
 }
 
 /// A tile row as stored.
@@ -174,7 +186,9 @@ pub fn insert_job(conn: &Connection, row: &JobRow) -> rusqlite::Result<u64> {
 pub fn load_jobs(conn: &Connection) -> anyhow::Result<Vec<JobRow>> {
     let mut stmt = conn.prepare(
         "SELECT id, spec, priority, state, error, idempotency_key, request_hash, created_ms,
-                started_ms, finished_ms, requires, name, submitter FROM jobs ORDER BY id",
+                started_ms, finished_ms, requires, name, submitter, tiles_done, stats,
+                image_sha256
+         FROM jobs ORDER BY id",
     )?;
     let rows = stmt.query_map([], |r| {
         Ok((
@@ -192,15 +206,24 @@ pub fn load_jobs(conn: &Connection) -> anyhow::Result<Vec<JobRow>> {
                 created_ms: r.get(7)?,
                 started_ms: r.get(8)?,
                 finished_ms: r.get(9)?,
+                totals: None,
+                image_sha256: r.get(15)?,
             },
             r.get::<_, String>(3)?,
+            r.get::<_, Option<u32>>(13)?,
+            r.get::<_, Option<String>>(14)?,
         ))
     })?;
     let mut jobs = Vec::new();
     for row in rows {
-        let (mut job, state) = row?;
+        let (mut job, state, tiles_done, stats) = row?;
         job.state = JobState::parse(&state)
             .ok_or_else(|| anyhow::anyhow!("job {}: unknown state {state:?}", job.id))?;
+        if let (Some(done), Some(stats)) = (tiles_done, stats) {
+            let stats = serde_json::from_str(&stats)
+                .map_err(|e| anyhow::anyhow!("job {}: stored statistics: {e}", job.id))?;
+            job.totals = Some((done, stats));
+        }
         jobs.push(job);
     }
     Ok(jobs)
@@ -240,6 +263,66 @@ pub fn load_tiles(conn: &Connection, job: u64) -> anyhow::Result<BTreeMap<u32, T
         tiles.insert(index, row);
     }
     Ok(tiles)
+}
+
+/// How many tiles of a job are done and their summed statistics, read row by row (nothing per
+/// tile is kept).
+pub fn tile_totals(conn: &Connection, job: u64) -> anyhow::Result<(u32, RenderStats)> {
+    let mut stmt = conn.prepare("SELECT stats FROM tiles WHERE job_id = ?1 AND state = 'done'")?;
+    let mut rows = stmt.query([job as i64])?;
+    let (mut done, mut stats) = (0u32, RenderStats::default());
+    while let Some(r) = rows.next()? {
+        let s: Option<String> = r.get(0)?;
+        let s = s.ok_or_else(|| anyhow::anyhow!("job {job}: a done tile without stats"))?;
+        stats.add(&serde_json::from_str(&s)?);
+        done += 1;
+    }
+    Ok((done, stats))
+}
+
+/// The finished tiles of a job as `(index, hash)`, in index order.
+pub fn done_tiles(conn: &Connection, job: u64) -> rusqlite::Result<Vec<(u32, String)>> {
+    let mut stmt = conn.prepare(
+        "SELECT tile_index, hash FROM tiles WHERE job_id = ?1 AND state = 'done' \
+         AND hash IS NOT NULL ORDER BY tile_index",
+    )?;
+    let rows = stmt.query_map([job as i64], |r| Ok((r.get(0)?, r.get(1)?)))?;
+    rows.collect()
+}
+
+/// The recorded result hash of a finished tile.
+pub fn done_hash(conn: &Connection, job: u64, index: u32) -> rusqlite::Result<Option<String>> {
+    use rusqlite::OptionalExtension;
+    conn.query_row(
+        "SELECT hash FROM tiles WHERE job_id = ?1 AND tile_index = ?2 AND state = 'done'",
+        params![job as i64, index],
+        |r| r.get(0),
+    )
+    .optional()
+    .map(Option::flatten)
+}
+
+/// Records a done job's totals (and its image's SHA-256, when just written) and deletes its
+/// tile rows: its image holds the pixels now.
+pub fn settle_done_job(
+    tx: &Transaction<'_>,
+    job: u64,
+    tiles_done: u32,
+    stats: &RenderStats,
+    image_sha256: Option<&str>,
+) -> anyhow::Result<()> {
+    tx.execute(
+        "UPDATE jobs SET tiles_done = ?2, stats = ?3, image_sha256 = COALESCE(?4, image_sha256)
+         WHERE id = ?1",
+        params![
+            job as i64,
+            tiles_done,
+            serde_json::to_string(stats)?,
+            image_sha256
+        ],
+    )?;
+    tx.execute("DELETE FROM tiles WHERE job_id = ?1", [job as i64])?;
+    Ok(())
 }
 
 /// The recorded failures of a job's tiles, oldest first.
@@ -457,6 +540,12 @@ pub fn requeue_tile(tx: &Transaction<'_>, job: u64, index: u32) -> rusqlite::Res
     Ok(())
 }
 
+/// Forgets a worker (lost long ago); failures it reported keep its id, without a name.
+pub fn delete_worker(conn: &Connection, worker: u64) -> rusqlite::Result<()> {
+    conn.execute("DELETE FROM workers WHERE id = ?1", [worker as i64])?;
+    Ok(())
+}
+
 /// Forgets a job and everything recorded about it.
 pub fn delete_job(conn: &Connection, job: u64) -> rusqlite::Result<()> {
     conn.execute("DELETE FROM jobs WHERE id = ?1", [job as i64])?;
@@ -486,6 +575,8 @@ mod tests {
             created_ms: 5,
             started_ms: None,
             finished_ms: None,
+            totals: None,
+            image_sha256: None,
         };
         let id = insert_job(&conn, &row).unwrap();
         record_lease(&conn, id, 7, 1, 42).unwrap();

@@ -42,6 +42,10 @@ pub enum Error {
         message: String,
         retry_after: std::time::Duration,
     },
+    /// Stored data found damaged that cannot be served or rebuilt (500, with this message,
+    /// which names no path).
+    #[error("{0}")]
+    Damaged(String),
     /// The coordinator is shutting down or not ready (503, `Retry-After: 5`).
     #[error("{0}")]
     Unavailable(&'static str),
@@ -65,7 +69,7 @@ impl Error {
             Error::TooMany(_) | Error::RateLimited { .. } => StatusCode::TOO_MANY_REQUESTS,
             Error::Unavailable(_) => StatusCode::SERVICE_UNAVAILABLE,
             Error::Internal(cause) if is_disk_full(cause) => StatusCode::INSUFFICIENT_STORAGE,
-            Error::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
+            Error::Internal(_) | Error::Damaged(_) => StatusCode::INTERNAL_SERVER_ERROR,
         }
     }
 

@@ -1,10 +1,15 @@
-//! The coordinator's ledger: every job, tile and worker in memory, written through to the
-//! database; submission, progress, cancellation, deletion.
+//! The coordinator's ledger: every job and worker in memory, written through to the database;
+//! submission, progress, cancellation, deletion.
 //!
 //! [`Ledger`] mirrors the database ([`crate::db`]) and owns the connection, so one lock orders
 //! every change: each change is written to the database first and applied in memory only once
 //! the write succeeded. A restarted coordinator rebuilds the ledger from the database with
 //! [`Ledger::load`]. Leasing, heartbeats, uploads and failures are in [`crate::lease`].
+//!
+//! Memory per job is bounded: only a live (queued, running, paused) job keeps per-tile state,
+//! a [`Tile`] of a few words and a rectangle per tile (result hashes stay in the database). A
+//! finished job keeps its counts and statistics only ([`Job::release_tiles`]), and a restart
+//! loads per-tile state for live jobs alone.
 
 use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
 use std::sync::Arc;
@@ -125,8 +130,12 @@ pub struct Job {
     pub created_ms: i64,
     pub started_ms: Option<i64>,
     pub finished_ms: Option<i64>,
-    /// Tile rectangles in centre-first order; a tile's index is its position here.
+    /// Tiles in the job.
+    pub tiles_total: u32,
+    /// Tile rectangles in centre-first order; a tile's index is its position here. Empty once
+    /// the job is finished.
     pub rects: Vec<TileRect>,
+    /// Per-tile state, as long as the job is live (empty once it is finished).
     pub tiles: Vec<Tile>,
     /// Indices of tiles in [`TileStatus::Leased`].
     pub leased: BTreeSet<u32>,
@@ -143,6 +152,9 @@ pub struct Job {
     pub recent_errors: VecDeque<TileError>,
     /// Every tile is in and the final image is being written.
     pub assembling: bool,
+    /// The SHA-256 of the final EXR as written (hex), once the job is done; `None` for a job
+    /// done before digests were recorded.
+    pub image_sha256: Option<String>,
 }
 
 /// One tile of a job.
@@ -157,12 +169,21 @@ pub struct Tile {
     pub leased_at: Option<Instant>,
 }
 
-/// Where a tile is.
+/// Where a tile is. A done tile's result hash is in the database ([`db::done_hash`]).
 #[derive(Debug, Clone, PartialEq)]
 pub enum TileStatus {
     Pending,
     Leased { deadline: Instant },
-    Done { hash: String },
+    Done,
+}
+
+impl Tile {
+    const PENDING: Tile = Tile {
+        epoch: 0,
+        worker: None,
+        status: TileStatus::Pending,
+        leased_at: None,
+    };
 }
 
 /// Milliseconds since the Unix epoch, for the times kept in the database.
@@ -180,16 +201,9 @@ impl Job {
             spec.scene.film.height,
             spec.tile_size,
         );
-        let tiles = vec![
-            Tile {
-                epoch: 0,
-                worker: None,
-                status: TileStatus::Pending,
-                leased_at: None,
-            };
-            rects.len()
-        ];
+        let tiles = vec![Tile::PENDING; rects.len()];
         Job {
+            tiles_total: rects.len() as u32,
             id,
             name: String::new(),
             submitter: None,
@@ -211,6 +225,7 @@ impl Job {
             failures: 0,
             recent_errors: VecDeque::new(),
             assembling: false,
+            image_sha256: None,
         }
     }
 
@@ -236,7 +251,7 @@ impl Job {
 
     /// Is every tile in?
     pub fn is_complete(&self) -> bool {
-        self.tiles_done as usize == self.tiles.len()
+        self.tiles_done == self.tiles_total
     }
 
     /// The job as clients see it, at wall-clock time `now_ms`, with `workers_live` workers
@@ -247,7 +262,7 @@ impl Job {
             None => 0,
         };
         let elapsed_s = elapsed_ms as f64 / 1000.0;
-        let total = self.tiles.len() as u32;
+        let total = self.tiles_total;
         let eta_s = (self.tiles_done > 0 && !self.state.is_finished())
             .then(|| elapsed_s / self.tiles_done as f64 * (total - self.tiles_done) as f64);
         JobInfo {
@@ -281,13 +296,50 @@ impl Job {
         self.recent_errors.push_back(error);
     }
 
-    /// Returns every leased tile to the queue (the job stopped handing out work).
-    pub(crate) fn drop_leases(&mut self) {
-        for index in std::mem::take(&mut self.leased) {
-            let tile = &mut self.tiles[index as usize];
-            tile.status = TileStatus::Pending;
-            tile.worker = None;
+    /// Forgets the per-tile state of a job that has finished: its leases, tiles, rectangles
+    /// and failure bookkeeping. Its counts, statistics and recent errors stay.
+    pub(crate) fn release_tiles(&mut self) {
+        self.leased = BTreeSet::new();
+        self.tiles = Vec::new();
+        self.rects = Vec::new();
+        self.failed_by = HashMap::new();
+        self.strikes = HashMap::new();
+    }
+
+    /// Rebuilds the per-tile state of a live job from its stored tile rows. Tiles recorded as
+    /// leased keep their lease until `lease_deadline` (after a restart), or are pending (`None`).
+    fn restore_tiles(
+        &mut self,
+        db: &Connection,
+        lease_deadline: Option<Instant>,
+    ) -> anyhow::Result<()> {
+        let film = &self.spec.scene.film;
+        self.rects = split_centre_first(film.width, film.height, self.spec.tile_size);
+        self.tiles = vec![Tile::PENDING; self.rects.len()];
+        self.leased = BTreeSet::new();
+        self.tiles_done = 0;
+        self.stats = RenderStats::default();
+        for (index, stored) in db::load_tiles(db, self.id)? {
+            let Some(tile) = self.tiles.get_mut(index as usize) else {
+                anyhow::bail!("job {}: stored tile {index} out of range", self.id);
+            };
+            tile.epoch = stored.epoch;
+            match (stored.state, lease_deadline) {
+                (TileRowState::Pending, _) | (TileRowState::Leased, None) => {}
+                (TileRowState::Leased, Some(deadline)) => {
+                    tile.worker = stored.worker_id;
+                    tile.status = TileStatus::Leased { deadline };
+                    self.leased.insert(index);
+                }
+                (TileRowState::Done { stats, .. }, _) => {
+                    tile.worker = stored.worker_id;
+                    tile.status = TileStatus::Done;
+                    self.tiles_done += 1;
+                    self.stats.add(&stats);
+                }
+            }
         }
+        Ok(())
     }
 }
 
@@ -339,7 +391,7 @@ impl Ledger {
     /// Rebuilds the ledger from the database. Leases that were live when the previous process
     /// stopped get `grace` from `now` to be renewed before they expire.
     pub fn load(
-        db: Connection,
+        mut db: Connection,
         lease_ttl: Duration,
         grace: Duration,
         now: Instant,
@@ -358,30 +410,25 @@ impl Ledger {
             job.error = row.error;
             job.started_ms = row.started_ms;
             job.finished_ms = row.finished_ms;
-            let active = job.is_active();
-            for (index, stored) in db::load_tiles(&db, row.id)? {
-                let Some(tile) = job.tiles.get_mut(index as usize) else {
-                    anyhow::bail!("job {}: stored tile {index} out of range", row.id);
+            job.image_sha256 = row.image_sha256;
+            if job.state.is_finished() {
+                job.release_tiles();
+                let (done, stats) = match row.totals {
+                    Some(totals) => totals,
+                    None => db::tile_totals(&db, row.id)?,
                 };
-                tile.epoch = stored.epoch;
-                match stored.state {
-                    TileRowState::Pending => {}
-                    TileRowState::Leased if active => {
-                        tile.worker = stored.worker_id;
-                        tile.status = TileStatus::Leased {
-                            deadline: now + grace,
-                        };
-                        job.leased.insert(index);
-                    }
-                    TileRowState::Leased => {}
-                    TileRowState::Done { hash, stats } => {
-                        tile.worker = stored.worker_id;
-                        tile.status = TileStatus::Done { hash };
-                        job.tiles_done += 1;
-                        job.stats.add(&stats);
-                    }
+                job.tiles_done = done;
+                job.stats = stats;
+                if job.state == JobState::Done && row.totals.is_none() {
+                    // Done before totals were recorded: its tile rows are not needed.
+                    let tx = db.transaction()?;
+                    db::settle_done_job(&tx, row.id, done, &stats, None)?;
+                    tx.commit()?;
                 }
+            } else {
+                job.restore_tiles(&db, Some(now + grace))?;
             }
+            let live = !job.state.is_finished();
             for failure in db::load_failures(&db, row.id)? {
                 job.failures += 1;
                 job.remember_error(TileError {
@@ -391,14 +438,16 @@ impl Ledger {
                     at_ms: failure.at_ms,
                     message: failure.reason.clone(),
                 });
-                job.failed_by
-                    .entry(failure.tile_index)
-                    .or_default()
-                    .insert(failure.worker_id);
-                job.strikes
-                    .entry(failure.worker_id)
-                    .or_default()
-                    .insert(failure.tile_index);
+                if live {
+                    job.failed_by
+                        .entry(failure.tile_index)
+                        .or_default()
+                        .insert(failure.worker_id);
+                    job.strikes
+                        .entry(failure.worker_id)
+                        .or_default()
+                        .insert(failure.tile_index);
+                }
             }
             if let Some(key) = row.idempotency_key {
                 keys.insert(key, (row.id, row.request_hash));
@@ -490,6 +539,8 @@ impl Ledger {
             created_ms: now,
             started_ms: None,
             finished_ms: None,
+            totals: None,
+            image_sha256: None,
         };
         let id = db::insert_job(&self.db, &row)?;
         let mut job = Job::new(id, Arc::new(new.spec), new.priority, now);
@@ -653,7 +704,11 @@ impl Ledger {
         db::requeue_job(&tx, id)?;
         db::set_job_state(&tx, id, JobState::Queued, None, None, None)?;
         tx.commit()?;
-        let job = self.job_mut(id)?;
+        let job = self
+            .jobs
+            .get_mut(&id)
+            .ok_or_else(|| Error::NotFound(format!("job {id} does not exist")))?;
+        job.restore_tiles(&self.db, None)?;
         job.state = JobState::Queued;
         job.error = None;
         job.started_ms = None;
@@ -662,13 +717,6 @@ impl Ledger {
         job.strikes.clear();
         job.failures = 0;
         job.recent_errors.clear();
-        job.leased.clear();
-        for tile in &mut job.tiles {
-            if !matches!(tile.status, TileStatus::Done { .. }) {
-                tile.status = TileStatus::Pending;
-                tile.worker = None;
-            }
-        }
         self.job_changed(id);
         tracing::info!(job = id, "job requeued");
         self.info(id)
@@ -825,7 +873,7 @@ impl Ledger {
         let job = self.job_mut(id)?;
         job.state = JobState::Cancelled;
         job.finished_ms = Some(now);
-        job.drop_leases();
+        job.release_tiles();
         self.job_changed(id);
         tracing::info!(job = id, "job cancelled");
         self.info(id)
@@ -865,7 +913,7 @@ impl Ledger {
         job.state = JobState::Failed;
         job.error = Some(error);
         job.finished_ms = Some(now);
-        job.drop_leases();
+        job.release_tiles();
         self.job_changed(id);
         Ok(())
     }
@@ -917,18 +965,11 @@ impl Ledger {
         Ok(id)
     }
 
-    /// The finished tiles of a job as `(index, hash)`, in index order.
+    /// The finished tiles of a job as `(index, hash)`, in index order (none once the job is
+    /// done: its image holds them).
     pub fn done_tiles(&self, id: u64) -> Result<Vec<(u32, String)>, Error> {
-        let job = self.job(id)?;
-        Ok(job
-            .tiles
-            .iter()
-            .enumerate()
-            .filter_map(|(i, t)| match &t.status {
-                TileStatus::Done { hash } => Some((i as u32, hash.clone())),
-                _ => None,
-            })
-            .collect())
+        self.job(id)?;
+        Ok(db::done_tiles(&self.db, id)?)
     }
 
     /// Jobs whose tiles are all in but whose image is not written yet (after a restart, or
@@ -944,9 +985,9 @@ impl Ledger {
         ids
     }
 
-    /// Records the end of assembly: the image is written and the job is done (unless it was
-    /// cancelled meanwhile).
-    pub fn finish_assembly(&mut self, id: u64) -> Result<(), Error> {
+    /// Records the end of assembly: the image, whose SHA-256 is `image_sha256` (hex), is
+    /// written and the job is done (unless it was cancelled meanwhile).
+    pub fn finish_assembly(&mut self, id: u64, image_sha256: &str) -> Result<(), Error> {
         let Ok(job) = self.job(id) else {
             return Ok(()); // Deleted meanwhile.
         };
@@ -954,13 +995,18 @@ impl Ledger {
             return Ok(());
         }
         let now = now_ms();
-        let started = job.started_ms;
-        db::set_job_state(&self.db, id, JobState::Done, None, started, Some(now))?;
+        let (started, done, stats) = (job.started_ms, job.tiles_done, job.stats);
+        let tx = self.db.transaction()?;
+        db::set_job_state(&tx, id, JobState::Done, None, started, Some(now))?;
+        db::settle_done_job(&tx, id, done, &stats, Some(image_sha256))?;
+        tx.commit()?;
         let job = self.job_mut(id)?;
+        job.image_sha256 = Some(image_sha256.to_string());
         job.state = JobState::Done;
         job.error = None;
         job.finished_ms = Some(now);
         job.assembling = false;
+        job.release_tiles();
         self.job_changed(id);
         tracing::info!(job = id, state = "done", "job finished");
         Ok(())
@@ -975,17 +1021,12 @@ impl Ledger {
             db::requeue_tile(&tx, id, *index)?;
         }
         tx.commit()?;
-        let mut stats = RenderStats::default();
-        for row in db::load_tiles(&self.db, id)?.into_values() {
-            if let TileRowState::Done { stats: s, .. } = row.state {
-                stats.add(&s);
-            }
-        }
+        let (_, stats) = db::tile_totals(&self.db, id)?;
         let at_ms = now_ms();
         let job = self.job_mut(id)?;
         for (index, why) in damaged {
             let tile = &mut job.tiles[*index as usize];
-            if matches!(tile.status, TileStatus::Done { .. }) {
+            if tile.status == TileStatus::Done {
                 tile.status = TileStatus::Pending;
                 tile.worker = None;
                 job.tiles_done -= 1;
@@ -1002,5 +1043,83 @@ impl Ledger {
         job.stats = stats;
         job.assembling = false;
         Ok(())
+    }
+}
+
+impl Ledger {
+    /// Per-tile entries held in memory, over every job (0 for a finished job).
+    pub fn tiles_in_memory(&self) -> usize {
+        self.jobs
+            .values()
+            .map(|j| j.tiles.len().max(j.rects.len()))
+            .sum()
+    }
+
+    /// Deletes the finished jobs that finished at least `keep` before `wall_ms` (ms since the
+    /// Unix epoch) and returns their ids (their files are removed by the caller).
+    pub fn delete_expired_jobs(&mut self, keep: Duration, wall_ms: i64) -> Result<Vec<u64>, Error> {
+        let keep_ms = i64::try_from(keep.as_millis()).unwrap_or(i64::MAX);
+        let expired: Vec<u64> = self
+            .jobs
+            .values()
+            .filter(|j| {
+                j.state.is_finished()
+                    && j.finished_ms
+                        .is_none_or(|at| at.saturating_add(keep_ms) <= wall_ms)
+            })
+            .map(|j| j.id)
+            .collect();
+        if expired.is_empty() {
+            return Ok(expired);
+        }
+        let tx = self.db.transaction()?;
+        for &id in &expired {
+            db::delete_job(&tx, id)?;
+        }
+        tx.commit()?;
+        for id in &expired {
+            self.jobs.remove(id);
+            tracing::info!(job = id, "finished job deleted (retention)");
+        }
+        self.keys.retain(|_, (job, _)| self.jobs.contains_key(job));
+        Ok(expired)
+    }
+
+    /// The assets some job still names (a job's assets are kept as long as the job).
+    pub fn referenced_assets(&self) -> std::collections::HashSet<String> {
+        self.jobs
+            .values()
+            .flat_map(|j| j.spec.assets.values().cloned())
+            .collect()
+    }
+
+    /// Forgets workers lost for at least `keep` (not heard from since `wall_ms − keep`);
+    /// returns how many. A forgotten worker that comes back is told to register again (404).
+    pub fn forget_lost_workers(
+        &mut self,
+        keep: Duration,
+        now: Instant,
+        wall_ms: i64,
+    ) -> Result<usize, Error> {
+        let keep_ms = i64::try_from(keep.as_millis()).unwrap_or(i64::MAX);
+        let gone: Vec<u64> = self
+            .workers
+            .iter()
+            .filter(|(_, w)| !w.is_live(now) && w.last_seen_ms.saturating_add(keep_ms) <= wall_ms)
+            .map(|(&id, _)| id)
+            .collect();
+        if gone.is_empty() {
+            return Ok(0);
+        }
+        let tx = self.db.transaction()?;
+        for &id in &gone {
+            db::delete_worker(&tx, id)?;
+        }
+        tx.commit()?;
+        for id in &gone {
+            self.workers.remove(id);
+            tracing::info!(worker = id, "lost worker forgotten");
+        }
+        Ok(gone.len())
     }
 }

@@ -307,7 +307,7 @@ impl Ledger {
                     drain,
                 })
             }
-            TileStatus::Done { .. } => Err(Error::Conflict(format!(
+            TileStatus::Done => Err(Error::Conflict(format!(
                 "tile {index} of job {id} is already done"
             ))),
             _ => Err(Error::Conflict(format!(
@@ -327,6 +327,13 @@ impl Ledger {
     ) -> Result<UploadPlan, Error> {
         let job = self.job(id)?;
         check_index(job, index)?;
+        if job.state.is_finished() {
+            // Its per-tile state is gone; nothing can change it any more.
+            return Err(Error::Conflict(format!(
+                "job {id} is {}",
+                job.state.as_str()
+            )));
+        }
         let expected = job.rects[index as usize];
         if upload.pixels.rect != expected {
             return Err(Error::BadRequest(format!(
@@ -347,8 +354,9 @@ impl Ledger {
             }
         }
         let tile = &job.tiles[index as usize];
-        if let TileStatus::Done { hash } = &tile.status {
-            if *hash == upload.hash {
+        if tile.status == TileStatus::Done {
+            let hash = db::done_hash(&self.db, id, index)?.unwrap_or_default();
+            if hash == upload.hash {
                 return Ok(UploadPlan::Duplicate);
             }
             crate::metrics::determinism_fault();
@@ -413,9 +421,7 @@ impl Ledger {
             None => String::new(),
         };
         let job = self.job_mut(id)?;
-        job.tiles[index as usize].status = TileStatus::Done {
-            hash: upload.hash.clone(),
-        };
+        job.tiles[index as usize].status = TileStatus::Done;
         job.leased.remove(&index);
         job.tiles_done += 1;
         job.stats.add(&upload.pixels.stats);
@@ -450,16 +456,16 @@ impl Ledger {
         self.seen(failure.worker_id, now);
         let job = self.job(id)?;
         check_index(job, index)?;
-        let tile = &job.tiles[index as usize];
-        if matches!(tile.status, TileStatus::Done { .. }) {
-            return Err(Error::Conflict(format!(
-                "tile {index} of job {id} is already done"
-            )));
-        }
         if !job.is_active() {
             return Err(Error::Conflict(format!(
                 "job {id} is {}",
                 job.state.as_str()
+            )));
+        }
+        let tile = &job.tiles[index as usize];
+        if tile.status == TileStatus::Done {
+            return Err(Error::Conflict(format!(
+                "tile {index} of job {id} is already done"
             )));
         }
         if tile.epoch != failure.epoch || tile.worker != Some(failure.worker_id) {
@@ -552,7 +558,7 @@ impl Ledger {
             job.state = JobState::Failed;
             job.error = Some(error);
             job.finished_ms = Some(at_ms);
-            job.drop_leases();
+            job.release_tiles();
             self.job_changed(id);
             return Ok(());
         }
@@ -588,13 +594,12 @@ fn next_tile_for(job: &Job, worker: u64) -> Option<u32> {
 }
 
 fn check_index(job: &Job, index: u32) -> Result<(), Error> {
-    if (index as usize) < job.tiles.len() {
+    if index < job.tiles_total {
         Ok(())
     } else {
         Err(Error::NotFound(format!(
             "job {} has no tile {index} (it has {})",
-            job.id,
-            job.tiles.len()
+            job.id, job.tiles_total
         )))
     }
 }

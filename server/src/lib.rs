@@ -22,6 +22,7 @@ pub mod jobs;
 pub mod lease;
 pub mod limits;
 pub mod metrics;
+pub mod retention;
 pub mod serve;
 pub mod throttle;
 pub mod tile_store;
@@ -35,7 +36,7 @@ use axum::Router;
 use tokio::sync::Notify;
 use tokio_util::sync::CancellationToken;
 
-pub use config::{Args, Config, Timeouts};
+pub use config::{Args, Config, Retention, Timeouts};
 pub use limits::Limits;
 
 use assets::AssetStore;
@@ -78,6 +79,12 @@ impl AppState {
             let ledger = Ledger::load(db, lease_ttl, grace, tokio::time::Instant::now())?;
             let assets = AssetStore::open(data.join("assets"))?;
             let tiles = TileStore::open(data.join("jobs"))?;
+            // A done job's tiles are in its image; a process stopped between the two left them.
+            for job in ledger.jobs.values() {
+                if job.state == spindle_common::protocol::JobState::Done {
+                    tiles.remove_tiles(job.id)?;
+                }
+            }
             anyhow::Ok((ledger, assets, tiles))
         })
         .await??;
@@ -99,6 +106,7 @@ impl AppState {
         tracing::info!(jobs, data = %state.config().data_dir.display(), "coordinator state loaded");
         state.assemble_complete_jobs();
         state.spawn_loss_watch();
+        retention::spawn(state.clone());
         Ok(state)
     }
 
@@ -115,6 +123,11 @@ impl AppState {
                 }
             }
         });
+    }
+
+    /// Per-tile entries the ledger holds in memory, over every job (finished jobs hold none).
+    pub fn tiles_in_memory(&self) -> usize {
+        self.ledger().tiles_in_memory()
     }
 
     pub(crate) fn events(&self) -> &events::Events {

@@ -96,6 +96,14 @@ impl TileStore {
         Ok(pixels)
     }
 
+    /// Removes a job's tile results (its image, if any, stays).
+    pub fn remove_tiles(&self, job: u64) -> std::io::Result<()> {
+        match std::fs::remove_dir_all(self.job_dir(job).join("tiles")) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e),
+            _ => Ok(()),
+        }
+    }
+
     /// Removes a job's directory and everything in it.
     pub fn remove_job(&self, job: u64) -> std::io::Result<()> {
         match std::fs::remove_dir_all(self.job_dir(job)) {

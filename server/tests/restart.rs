@@ -162,33 +162,61 @@ async fn leases_from_before_a_restart_expire_after_the_grace_period() {
 #[tokio::test]
 async fn an_interrupted_assembly_is_finished_after_a_restart() {
     let dir = tempfile::tempdir().unwrap();
-    let job = {
+    let (job, last, worker) = {
         let c = Coordinator::open(config(dir.path())).await;
         let job = c
             .submit(json!({"scene": scene(16, 8), "tile_size": 8}))
             .await;
         let w = c.register("w").await;
-        while let Some(lease) = c.lease(w).await {
-            c.upload(job.id, lease.tile_index, &upload_for(&lease, w))
-                .await;
-        }
-        assert_eq!(c.wait_finished(job.id).await.state, JobState::Done);
-        job
+        let first = c.lease(w).await.unwrap();
+        let (status, _) = c
+            .upload(job.id, first.tile_index, &upload_for(&first, w))
+            .await;
+        assert_eq!(status, StatusCode::OK);
+        (job, c.lease(w).await.unwrap(), w)
     };
-    // Undo the end of assembly as a kill before it would have left it.
-    let image = dir
+    // A kill after the last tile was stored and recorded, before the image was written: its
+    // file and its row, as the upload route leaves them (a done job's tiles go once its image
+    // is written, so they are put back by hand).
+    let upload = upload_for(&last, worker);
+    let tiles = dir
         .path()
         .join("jobs")
         .join(job.id.to_string())
-        .join("image.exr");
-    std::fs::remove_file(&image).unwrap();
+        .join("tiles");
+    std::fs::write(
+        tiles.join(format!("{}-{}.json", last.tile_index, upload.hash)),
+        serde_json::to_vec(&upload.pixels).unwrap(),
+    )
+    .unwrap();
     let db = rusqlite::Connection::open(dir.path().join("spindle.db")).unwrap();
-    db.execute("UPDATE jobs SET state = 'running', finished_ms = NULL", [])
-        .unwrap();
+    db.execute(
+        "UPDATE tiles SET state = 'done', hash = ?1, stats = ?2 WHERE tile_index = ?3",
+        rusqlite::params![
+            upload.hash,
+            serde_json::to_string(&upload.pixels.stats).unwrap(),
+            last.tile_index
+        ],
+    )
+    .unwrap();
     drop(db);
 
     let c = Coordinator::open(config(dir.path())).await;
     let info = c.wait_finished(job.id).await;
     assert_eq!(info.state, JobState::Done, "{:?}", info.error);
+    assert_eq!(info.tiles_done, 2);
+    let image = dir
+        .path()
+        .join("jobs")
+        .join(job.id.to_string())
+        .join("image.exr");
     assert!(image.is_file());
+    // The tiles go once the image is written (just after the job is recorded done).
+    for _ in 0..150 {
+        if !tiles.exists() {
+            return;
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    panic!("the tiles of a done job are still there");
 }

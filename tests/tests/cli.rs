@@ -259,6 +259,32 @@ async fn submit_wait_status_fetch_and_cancel_against_a_coordinator() {
             &reference_image(&desc, &assets).unwrap(),
         );
 
+        // One byte of the stored image changed: the coordinator refuses to serve it and fetch
+        // fails with its message, leaving no file.
+        let stored = farm
+            .dir
+            .path()
+            .join("data/jobs")
+            .join(id.to_string())
+            .join("image.exr");
+        let mut bytes = std::fs::read(&stored).unwrap();
+        let middle = bytes.len() / 2;
+        bytes[middle] ^= 0x01;
+        std::fs::write(&stored, &bytes).unwrap();
+        let damaged = dir.path().join("damaged.exr");
+        let out = spindle(
+            &["fetch", &id.to_string(), "-o", damaged.to_str().unwrap()],
+            Some(&farm),
+        )
+        .await;
+        assert!(!out.status.success(), "{}", text(&out));
+        assert!(
+            text(&out).contains(&format!("the image of job {id} is damaged")),
+            "{}",
+            text(&out)
+        );
+        assert!(!damaged.exists());
+
         // A wrong token is refused with a clear message.
         let mut cmd = Command::new(binary("spindle"));
         cmd.args(["status"])

@@ -399,3 +399,35 @@ fn non_finite_pixels_are_counted_once_each() {
     assert!(image.total[0].is_nan());
     assert_eq!(image.non_finite_count(), 3);
 }
+
+/// An EXR written before the `stderr` layer existed (nine channels) still reads, with `stderr`
+/// 0 and the other layers bit for bit.
+#[test]
+fn files_without_the_stderr_layer_read_with_stderr_zero() {
+    use exr::prelude::{ReadChannels, ReadLayers, WritableImage};
+    let image = patterned(7, 5);
+    let bytes = image.to_exr_bytes().unwrap();
+    let mut file = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(std::io::Cursor::new(bytes))
+        .unwrap();
+    file.layer_data
+        .channel_data
+        .list
+        .retain(|c| !c.name.to_string().starts_with("stderr."));
+    assert_eq!(file.layer_data.channel_data.list.len(), 9);
+    let mut old = Vec::new();
+    file.write()
+        .to_buffered(std::io::Cursor::new(&mut old))
+        .unwrap();
+    let back = Image::from_exr_bytes(&old).unwrap();
+    assert!(back.stderr.iter().all(|&v| v == 0.0));
+    assert_eq!(
+        (back.total, back.surface, back.single_scatter),
+        (image.total, image.surface, image.single_scatter)
+    );
+}

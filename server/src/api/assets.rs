@@ -51,7 +51,7 @@ async fn missing_assets(
                 "hashes[{i}]: {hash:?} is not a blake3 hash (64 lowercase hex digits)"
             )));
         }
-        if !state.assets().has(hash)? && !missing.contains(hash) {
+        if !state.assets().touch(hash)? && !missing.contains(hash) {
             missing.push(hash.clone());
         }
     }
@@ -69,7 +69,7 @@ async fn put_asset(
     ApiPath(hash): ApiPath<String>,
     request: Request,
 ) -> Result<Json<AssetStored>, Error> {
-    if state.assets().has(&hash)? {
+    if state.assets().touch(&hash)? {
         let bytes = tokio::fs::metadata(state.assets().file(&hash)?)
             .await?
             .len();

@@ -4,8 +4,9 @@
 use axum::Json;
 use axum::extract::rejection::QueryRejection;
 use axum::extract::{Query, State};
-use axum::http::{HeaderMap, StatusCode, header};
+use axum::http::{HeaderMap, HeaderName, StatusCode, header};
 use axum::response::{IntoResponse, Response};
+use base64::Engine;
 use serde::Deserialize;
 use spindle_common::protocol::{
     ApiError, DEFAULT_JOB_PAGE, IDEMPOTENCY_KEY_HEADER, JobInfo, JobList, JobPatch, JobState,
@@ -62,7 +63,19 @@ async fn submit_job(
     let limits = &state.config().limits;
     admission::admit(&submit, limits, state.assets()).await?;
     let new = NewJob::new(submit, key)?;
-    let (info, created) = state.ledger().submit(new, limits.max_active_jobs)?;
+    let (info, created) = {
+        let mut ledger = state.ledger();
+        // Checked again under the lock the sweep deletes unreferenced assets under: once the
+        // job is stored, its assets are kept as long as it is.
+        for (path, hash) in &new.spec.assets {
+            if !state.assets().has(hash)? {
+                return Err(Error::BadRequest(format!(
+                    "assets.{path}: asset {hash} is not uploaded (PUT /v1/assets/{hash} first)"
+                )));
+            }
+        }
+        ledger.submit(new, limits.max_active_jobs)?
+    };
     if created {
         state.work_available();
         Ok((StatusCode::CREATED, Json(info)))
@@ -273,12 +286,55 @@ async fn image_exr(
                 "job {id} is {} ({} of {} tiles); the image is ready when the job is done",
                 job.state.as_str(),
                 job.tiles_done,
-                job.tiles.len()
+                job.tiles_total
             )));
         }
     }
-    let bytes = tokio::fs::read(state.tile_store().image_path(id)).await?;
-    Ok(([(header::CONTENT_TYPE, "image/x-exr")], bytes).into_response())
+    let (bytes, sha256) = final_image(&state, id).await?;
+    let digest = base64::engine::general_purpose::STANDARD.encode(&sha256);
+    let hex: String = sha256.iter().map(|b| format!("{b:02x}")).collect();
+    Ok((
+        [
+            (header::CONTENT_TYPE, "image/x-exr".to_string()),
+            (header::ETAG, format!("\"{hex}\"")),
+            (
+                HeaderName::from_static("repr-digest"),
+                format!("sha-256=:{digest}:"),
+            ),
+        ],
+        bytes,
+    )
+        .into_response())
+}
+
+/// A done job's EXR and the SHA-256 of its bytes, checked against the digest recorded when it
+/// was written: bytes changed on disk are never served (500 naming the job). A job done before
+/// digests were recorded is served as read.
+async fn final_image(state: &AppState, id: u64) -> Result<(Vec<u8>, Vec<u8>), Error> {
+    let recorded = state.ledger().job(id)?.image_sha256.clone();
+    let path = state.tile_store().image_path(id);
+    tokio::task::spawn_blocking(move || {
+        use sha2::Digest;
+        let bytes = std::fs::read(&path).map_err(|e| {
+            tracing::error!(job = id, path = %path.display(), error = %e, "reading a job's image failed");
+            Error::Damaged(format!("the image of job {id} cannot be read on the coordinator"))
+        })?;
+        let sha256 = sha2::Sha256::digest(&bytes).to_vec();
+        let hex: String = sha256.iter().map(|b| format!("{b:02x}")).collect();
+        if let Some(recorded) = recorded
+            && recorded != hex
+        {
+            tracing::error!(job = id, path = %path.display(), %recorded, actual = %hex,
+                "a job's image changed on disk since it was written; refusing to serve it");
+            return Err(Error::Damaged(format!(
+                "the image of job {id} is damaged on the coordinator's disk (its SHA-256 is not \
+                 the one recorded when it was written); it is not served — render the job again"
+            )));
+        }
+        Ok((bytes, sha256))
+    })
+    .await
+    .map_err(anyhow::Error::from)?
 }
 
 /// A PNG preview of the tiles received so far.
@@ -289,13 +345,30 @@ async fn image_png(
     State(state): State<AppState>,
     ApiPath(id): ApiPath<u64>,
 ) -> Result<Response, Error> {
-    let (spec, tiles) = {
+    let (spec, done, tiles) = {
         let ledger = state.ledger();
-        (ledger.job(id)?.spec.clone(), ledger.done_tiles(id)?)
+        let job = ledger.job(id)?;
+        let done = job.state == JobState::Done;
+        (job.spec.clone(), done, ledger.done_tiles(id)?)
+    };
+    // A done job's tiles are gone: its preview is made from its (checked) image.
+    let exr = if done {
+        Some(final_image(&state, id).await?.0)
+    } else {
+        None
     };
     let store = state.tile_store().clone();
-    let png = tokio::task::spawn_blocking(move || assemble::preview_png(&store, id, &spec, &tiles))
-        .await
-        .map_err(anyhow::Error::from)??;
+    let png = tokio::task::spawn_blocking(move || {
+        if let Some(exr) = exr {
+            let image = spindle_common::image::Image::from_exr_bytes(&exr).map_err(|e| {
+                tracing::error!(job = id, error = %e, "decoding the image of a done job failed");
+                anyhow::anyhow!("the image of job {id} cannot be decoded")
+            })?;
+            return Ok(image.to_png_preview_bytes()?);
+        }
+        assemble::preview_png(&store, id, &spec, &tiles)
+    })
+    .await
+    .map_err(anyhow::Error::from)??;
     Ok(([(header::CONTENT_TYPE, "image/png")], png).into_response())
 }

@@ -2,15 +2,24 @@
 //!
 //! Read-only: it reports the ledger's view (queued, leased, done, failed) and the worker of
 //! each lease or result, so a page can draw the map once and then follow `tile_done` events.
+//! A finished job keeps no per-tile state in memory (retention): its rectangles are recomputed,
+//! every tile of a done job is done, and a cancelled or failed job's tiles are read from its
+//! stored rows.
 
 use axum::Json;
 use axum::extract::State;
 use spindle_common::protocol::{ApiError, JobTiles, TileInfo, TileState};
 use utoipa_axum::routes;
 
+use std::collections::BTreeMap;
+
+use spindle_common::protocol::JobState;
+use spindle_common::tile::split_centre_first;
+
 use super::Declared;
 use crate::AppState;
 use crate::auth::Role;
+use crate::db::{self, TileRowState};
 use crate::error::Error;
 use crate::extract::ApiPath;
 use crate::jobs::TileStatus;
@@ -30,6 +39,39 @@ async fn job_tiles(
 ) -> Result<Json<JobTiles>, Error> {
     let ledger = state.ledger();
     let job = ledger.job(id)?;
+    if job.tiles.is_empty() {
+        let film = &job.spec.scene.film;
+        let rects = split_centre_first(film.width, film.height, job.spec.tile_size);
+        let stored = if job.state == JobState::Done {
+            BTreeMap::new()
+        } else {
+            db::load_tiles(&ledger.db, id).map_err(Error::Internal)?
+        };
+        let tiles = rects
+            .into_iter()
+            .enumerate()
+            .map(|(index, rect)| {
+                let index = index as u32;
+                let done = job.state == JobState::Done
+                    || matches!(
+                        stored.get(&index).map(|row| &row.state),
+                        Some(TileRowState::Done { .. })
+                    );
+                TileInfo {
+                    index,
+                    rect,
+                    state: if done {
+                        TileState::Done
+                    } else {
+                        TileState::Queued
+                    },
+                    worker: None,
+                    failures: 0,
+                }
+            })
+            .collect();
+        return Ok(Json(JobTiles { job: id, tiles }));
+    }
     let tiles = job
         .rects
         .iter()
