@@ -81,7 +81,7 @@ async fn job_tiles(
             let index = index as u32;
             let failures = job.failed_by.get(&index).map_or(0, |w| w.len() as u32);
             let state = match tile.status {
-                TileStatus::Done { .. } => TileState::Done,
+                TileStatus::Done => TileState::Done,
                 TileStatus::Leased { .. } => TileState::Leased,
                 TileStatus::Pending if failures > 0 => TileState::Failed,
                 TileStatus::Pending => TileState::Queued,
