@@ -1,5 +1,5 @@
 //! `spindle render SCENE.json -o OUT.exr [--workers N]`: render a scene on this machine and
-//! write the OpenEXR image (layers `total`, `surface`, `single_scatter`) and a PNG preview
+//! write the OpenEXR image (layers `total`, `surface`, `single_scatter`, `stderr`) and a PNG preview
 //! beside it (`OUT.png`).
 //!
 //! By default through an embedded local farm ([`crate::local_farm`]: a coordinator and N
@@ -9,7 +9,7 @@
 //! header attributes.
 
 use std::io::IsTerminal;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
@@ -54,9 +54,14 @@ pub struct RenderArgs {
     /// Tile edge in pixels on the local farm.
     #[arg(long, default_value_t = DEFAULT_TILE_SIZE)]
     pub tile_size: u32,
-    /// Print the render statistics and the mean of each layer (total, surface, single_scatter).
+    /// Print the render statistics and the mean of each layer (total, surface, single_scatter,
+    /// stderr).
     #[arg(long)]
     pub stats: bool,
+    /// Also write `OUT.stderr.png`: each pixel's relative standard error (stderr / total),
+    /// black at 0 and white at 10 % or more, to see where the image is still noisy.
+    #[arg(long)]
+    pub error_png: bool,
 }
 
 impl RenderArgs {
@@ -155,7 +160,7 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
         scatter_plan.join("; "),
     );
     a.insert("spindle.workers".into(), workers.to_string());
-    let preview = write_outputs(&image, &args.output)?;
+    let preview = write_outputs(&image, args)?;
     println!(
         "rendered {} ({}x{}, {} spp) on a local farm of {workers} workers in {:.2} s \
          ({} tiles of {} px: {} per worker)",
@@ -269,7 +274,7 @@ fn in_process(args: &RenderArgs) -> Result<()> {
     if !summary.warnings.is_empty() {
         a.insert("spindle.warnings".into(), summary.warnings.join("; "));
     }
-    let preview = write_outputs(&image, &args.output)?;
+    let preview = write_outputs(&image, args)?;
 
     println!(
         "rendered {} ({}x{}{}, {} spp, {} triangles in {} objects, {} lights, {} warnings) in {:.2} s \
@@ -323,8 +328,17 @@ fn describe(
     }
 }
 
-/// Writes the EXR and the PNG preview beside it; returns the preview's path.
-fn write_outputs(image: &Image, output: &Path) -> Result<PathBuf> {
+/// Writes the EXR and the PNG preview beside it (and with `--error-png` the relative-error
+/// PNG); returns the preview's path.
+fn write_outputs(image: &Image, args: &RenderArgs) -> Result<PathBuf> {
+    let output = &args.output;
+    if args.error_png {
+        let path = output.with_extension("stderr.png");
+        image
+            .write_png_relative_error(&path)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        println!("relative error {}", path.display());
+    }
     image
         .write_exr(output)
         .with_context(|| format!("cannot write {}", output.display()))?;

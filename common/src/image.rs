@@ -289,18 +289,50 @@ impl Image {
     /// The `total` layer tone-mapped to an 8-bit sRGB PNG (see [`preview_pixel`]).
     pub fn to_png_preview_bytes(&self) -> Result<Vec<u8>, ImageError> {
         self.check_writable()?;
+        let data: Vec<u8> = self.total.iter().map(|&v| preview_pixel(v)).collect();
+        self.encode_png(&data)
+    }
+
+    /// The relative standard error `stderr / total` of each pixel and channel as an 8-bit sRGB
+    /// PNG: black where it is 0, white at [`RELATIVE_ERROR_WHITE`] or more (see
+    /// [`relative_error_pixel`]), so noise shows where it is.
+    pub fn to_png_relative_error_bytes(&self) -> Result<Vec<u8>, ImageError> {
+        self.check_writable()?;
+        let data: Vec<u8> = self
+            .stderr
+            .iter()
+            .zip(&self.total)
+            .map(|(&e, &t)| relative_error_pixel(e, t))
+            .collect();
+        self.encode_png(&data)
+    }
+
+    /// Writes [`Image::to_png_relative_error_bytes`], atomically.
+    pub fn write_png_relative_error(&self, path: impl AsRef<Path>) -> Result<(), ImageError> {
+        let path = path.as_ref();
+        let bytes = self.to_png_relative_error_bytes().map_err(|e| match e {
+            ImageError::Png { problem, .. } => ImageError::Png {
+                path: path.display().to_string(),
+                problem,
+            },
+            other => other,
+        })?;
+        write_file(path, &bytes)
+    }
+
+    /// RGB bytes of this image's size as an 8-bit sRGB PNG.
+    fn encode_png(&self, data: &[u8]) -> Result<Vec<u8>, ImageError> {
         let png_error = |e: png::EncodingError| ImageError::Png {
             path: "(in memory)".into(),
             problem: e.to_string(),
         };
-        let data: Vec<u8> = self.total.iter().map(|&v| preview_pixel(v)).collect();
         let mut out = Vec::new();
         let mut encoder = png::Encoder::new(&mut out, self.width, self.height);
         encoder.set_color(png::ColorType::Rgb);
         encoder.set_depth(png::BitDepth::Eight);
         encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
         let mut writer = encoder.write_header().map_err(png_error)?;
-        writer.write_image_data(&data).map_err(png_error)?;
+        writer.write_image_data(data).map_err(png_error)?;
         writer.finish().map_err(png_error)?;
         Ok(out)
     }
@@ -327,6 +359,23 @@ pub fn read_exr(path: impl AsRef<Path>) -> Result<Image, ImageError> {
         source,
     })?;
     read_exr_from(&bytes, &path.display().to_string())
+}
+
+/// The relative standard error shown white by [`Image::to_png_relative_error_bytes`].
+pub const RELATIVE_ERROR_WHITE: f32 = 0.1;
+
+/// One channel of the relative-error PNG: `stderr / |total|` over [`RELATIVE_ERROR_WHITE`],
+/// clamped to [0, 1] and sRGB-encoded like the preview; a black pixel with no error is black, one
+/// with error (or a non-finite value) white.
+pub fn relative_error_pixel(stderr: f32, total: f32) -> u8 {
+    let relative = if stderr == 0.0 {
+        0.0
+    } else if total != 0.0 && (stderr / total).is_finite() {
+        (stderr / total).abs() / RELATIVE_ERROR_WHITE
+    } else {
+        1.0
+    };
+    preview_pixel(relative.min(1.0))
 }
 
 /// The preview's tone map for one linear sample: clamp to [0, 1] at exposure 1 (no curve, so a

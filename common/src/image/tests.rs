@@ -431,3 +431,27 @@ fn files_without_the_stderr_layer_read_with_stderr_zero() {
         (image.total, image.surface, image.single_scatter)
     );
 }
+
+/// The relative-error PNG: 0 black, 5 % the preview's grey for 0.5, 10 % and more white, a
+/// black pixel with noise white; the decoded PNG holds exactly those bytes.
+#[test]
+fn the_relative_error_png_shows_stderr_over_total() {
+    assert_eq!(relative_error_pixel(0.0, 0.0), 0);
+    assert_eq!(relative_error_pixel(0.0, 3.0), 0);
+    assert_eq!(relative_error_pixel(0.05, 1.0), preview_pixel(0.5));
+    assert_eq!(relative_error_pixel(0.5, -10.0), preview_pixel(0.5));
+    assert_eq!(relative_error_pixel(0.2, 1.0), 255);
+    assert_eq!(relative_error_pixel(1e-6, 0.0), 255);
+    let mut image = Image::new(2, 1);
+    image.total = vec![1.0, 2.0, 4.0, 0.0, 0.0, 8.0];
+    image.stderr = vec![0.05, 0.0, 1.0, 0.0, 0.3, 0.08];
+    let bytes = image.to_png_relative_error_bytes().unwrap();
+    let decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    assert_eq!(
+        &buf[..info.buffer_size()],
+        &[preview_pixel(0.5), 0, 255, 0, 255, preview_pixel(0.1)]
+    );
+}

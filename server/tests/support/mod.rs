@@ -183,6 +183,7 @@ pub fn fake_tile(rect: TileRect, index: u32) -> TilePixels {
         &mut pixels.total,
         &mut pixels.surface,
         &mut pixels.single_scatter,
+        &mut pixels.stderr,
     ]
     .into_iter()
     .enumerate()
