@@ -309,15 +309,7 @@ impl Image {
 
     /// Writes [`Image::to_png_relative_error_bytes`], atomically.
     pub fn write_png_relative_error(&self, path: impl AsRef<Path>) -> Result<(), ImageError> {
-        let path = path.as_ref();
-        let bytes = self.to_png_relative_error_bytes().map_err(|e| match e {
-            ImageError::Png { problem, .. } => ImageError::Png {
-                path: path.display().to_string(),
-                problem,
-            },
-            other => other,
-        })?;
-        write_file(path, &bytes)
+        write_png(path.as_ref(), self.to_png_relative_error_bytes())
     }
 
     /// RGB bytes of this image's size as an 8-bit sRGB PNG.
@@ -339,16 +331,20 @@ impl Image {
 
     /// Writes the PNG preview of the `total` layer, atomically.
     pub fn write_png_preview(&self, path: impl AsRef<Path>) -> Result<(), ImageError> {
-        let path = path.as_ref();
-        let bytes = self.to_png_preview_bytes().map_err(|e| match e {
-            ImageError::Png { problem, .. } => ImageError::Png {
-                path: path.display().to_string(),
-                problem,
-            },
-            other => other,
-        })?;
-        write_file(path, &bytes)
+        write_png(path.as_ref(), self.to_png_preview_bytes())
     }
+}
+
+/// Writes encoded PNG bytes to `path` atomically, naming `path` in an encoding error.
+fn write_png(path: &Path, bytes: Result<Vec<u8>, ImageError>) -> Result<(), ImageError> {
+    let bytes = bytes.map_err(|e| match e {
+        ImageError::Png { problem, .. } => ImageError::Png {
+            path: path.display().to_string(),
+            problem,
+        },
+        other => other,
+    })?;
+    write_file(path, &bytes)
 }
 
 /// Reads an EXR file written by [`Image::write_exr`]; see [`Image::from_exr_bytes`].

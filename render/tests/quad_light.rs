@@ -1,13 +1,15 @@
-//! The quad (rectangle) light through the whole renderer, against ground truth: a diffuse floor
-//! under it (Lambert's closed form), the light seen from the front and from behind, and single
+//! The quad (rectangle) light against ground truth: its light samples' irradiance and, through
+//! the whole renderer, a diffuse floor under it (Lambert's closed form), the light seen from the front and from behind, and single
 //! scattering at η = 1 against a brute-force integral over the segment and the rectangle.
 
 mod support;
 
 use glam::DVec3;
 use serde_json::{Value, json};
+use spindle_common::scene as desc;
 use spindle_common::stats::RenderStats;
 use spindle_common::tile::TileRect;
+use spindle_render::light::{Light, SceneSphere};
 use spindle_render::ray::Ray;
 use spindle_render::sampler::Sampler;
 use spindle_render::scatter::{describe_plan, single_scatter};
@@ -45,6 +47,72 @@ fn lambert_irradiance(p: DVec3, n: DVec3, vertices: &[DVec3], radiance: f64) -> 
         sum += theta * n.dot(a.cross(b).normalize());
     }
     0.5 * radiance * sum.abs()
+}
+
+/// Irradiance from a quad light at receivers close by (sampled by solid angle), far away (by
+/// area) and at a slant, against Lambert's closed form; behind the light, none.
+#[test]
+fn quad_light_irradiance_matches_lamberts_formula() {
+    let (corner, eu, ev) = ([-1.0, -0.5, 2.0], [2.0, 0.0, 0.0], [0.0, 1.0, 0.0]);
+    // Edges (ev, eu): the normal ev × eu is −z, so the light at z = 2 shines down.
+    let light = Light::new(
+        &desc::Light::Quad {
+            corner,
+            edge_u: ev,
+            edge_v: eu,
+            radiance: [3.0; 3],
+        },
+        SceneSphere {
+            center: DVec3::ZERO,
+            radius: 1.0,
+        },
+    )
+    .unwrap();
+    let vertices = [
+        DVec3::from_array(corner),
+        DVec3::from_array(corner) + DVec3::from_array(ev),
+        DVec3::from_array(corner) + DVec3::from_array(ev) + DVec3::from_array(eu),
+        DVec3::from_array(corner) + DVec3::from_array(eu),
+    ];
+    for (p, n) in [
+        (DVec3::ZERO, DVec3::Z),
+        (
+            DVec3::new(0.3, 0.2, 1.7),
+            DVec3::new(0.1, 0.0, 1.0).normalize(),
+        ),
+        (
+            DVec3::new(2.0, -1.0, 0.5),
+            DVec3::new(-0.5, 0.2, 1.0).normalize(),
+        ),
+        // Ω = 2e-4 sr: sampled by area.
+        (DVec3::new(0.0, 0.0, -98.0), DVec3::Z),
+    ] {
+        let mut e = 0.0;
+        let k = 300;
+        for i in 0..k {
+            for j in 0..k {
+                let u = [(i as f64 + 0.5) / k as f64, (j as f64 + 0.5) / k as f64];
+                let s = light.sample_incident(p, u).expect("in front of the light");
+                let hit = p + s.dir * s.distance;
+                assert!(
+                    (hit.z - 2.0).abs() < 1e-9,
+                    "the sample is on the light: {hit}"
+                );
+                e += s.weight.x * s.dir.dot(n).max(0.0);
+            }
+        }
+        e /= (k * k) as f64;
+        let expected = lambert_irradiance(p, n, &vertices, 3.0);
+        assert!(
+            (e - expected).abs() < 2e-3 * expected,
+            "at {p}: {e} vs {expected}"
+        );
+    }
+    assert!(
+        light
+            .sample_incident(DVec3::new(0.0, 0.0, 3.0), [0.5, 0.5])
+            .is_none()
+    );
 }
 
 /// A diffuse floor (top at z = 0) under a 2 × 1.5 quad at height 1.2, off to one side and facing
