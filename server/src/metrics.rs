@@ -18,7 +18,7 @@ use axum::extract::State;
 use axum::http::header;
 use axum::response::IntoResponse;
 use metrics_exporter_prometheus::{Matcher, PrometheusBuilder, PrometheusHandle};
-use spindle_common::protocol::{JobState, Lease, TileOutcome};
+use spindle_common::protocol::{JobState, Lease, TileOutcome, WorkerState};
 
 use crate::AppState;
 use crate::jobs::TileStatus;
@@ -37,6 +37,9 @@ pub const TILES_FAILED: &str = "spindle_tiles_failed_total";
 pub const JOBS: &str = "spindle_jobs";
 /// Workers connected now.
 pub const WORKERS_LIVE: &str = "spindle_workers_live";
+/// Workers by state (label `state`: idle, rendering, draining, lost), as `GET /v1/workers`
+/// lists them.
+pub const WORKERS: &str = "spindle_workers";
 /// Leases that lapsed without an upload (their tiles went back to the queue).
 pub const LEASE_EXPIRIES: &str = "spindle_lease_expiries_total";
 /// Uploads for a finished tile whose pixels differ from the stored ones.
@@ -76,13 +79,17 @@ pub fn handle() -> &'static PrometheusHandle {
 
 fn describe() {
     use metrics::{describe_counter, describe_gauge, describe_histogram};
-    describe_gauge!(TILES_QUEUED, "Pending tiles of queued or running jobs.");
+    describe_gauge!(
+        TILES_QUEUED,
+        "Pending tiles of queued or running jobs (not paused ones)."
+    );
     describe_gauge!(TILES_LEASED, "Tiles leased to a worker now.");
     describe_counter!(LEASES, "Leases granted.");
     describe_counter!(TILES_DONE, "Tile uploads accepted.");
     describe_counter!(TILES_FAILED, "Tile failures recorded.");
     describe_gauge!(JOBS, "Jobs by state.");
     describe_gauge!(WORKERS_LIVE, "Workers connected now.");
+    describe_gauge!(WORKERS, "Workers by state, as GET /v1/workers lists them.");
     describe_counter!(LEASE_EXPIRIES, "Leases that lapsed without an upload.");
     describe_counter!(
         DETERMINISM_FAULTS,
@@ -171,8 +178,9 @@ pub fn determinism_fault() {
 struct Gauges {
     tiles_queued: u64,
     tiles_leased: u64,
-    jobs: [(JobState, u64); 5],
+    jobs: [(JobState, u64); 6],
     workers_live: u32,
+    workers: [(WorkerState, u64); 4],
 }
 
 fn gauges(state: &AppState) -> Gauges {
@@ -184,11 +192,19 @@ fn gauges(state: &AppState) -> Gauges {
             JobState::Done,
             JobState::Failed,
             JobState::Cancelled,
+            JobState::Paused,
         ]
         .map(|s| (s, 0)),
         tiles_queued: 0,
         tiles_leased: 0,
         workers_live: 0,
+        workers: [
+            WorkerState::Idle,
+            WorkerState::Rendering,
+            WorkerState::Draining,
+            WorkerState::Lost,
+        ]
+        .map(|s| (s, 0)),
     };
     for job in ledger.jobs.values() {
         if let Some((_, n)) = g.jobs.iter_mut().find(|(s, _)| *s == job.state) {
@@ -198,13 +214,21 @@ fn gauges(state: &AppState) -> Gauges {
             continue;
         }
         g.tiles_leased += job.leased.len() as u64;
-        g.tiles_queued += job
-            .tiles
-            .iter()
-            .filter(|t| t.status == TileStatus::Pending)
-            .count() as u64;
+        // The autoscaling signal: a paused job's tiles wait for no worker.
+        if job.is_leasing() {
+            g.tiles_queued += job
+                .tiles
+                .iter()
+                .filter(|t| t.status == TileStatus::Pending)
+                .count() as u64;
+        }
     }
     g.workers_live = ledger.workers_live(tokio::time::Instant::now());
+    for worker in ledger.worker_list() {
+        if let Some((_, n)) = g.workers.iter_mut().find(|(s, _)| *s == worker.state) {
+            *n += 1;
+        }
+    }
     g
 }
 
@@ -226,6 +250,9 @@ pub(crate) async fn metrics(State(state): State<AppState>) -> impl IntoResponse 
         metrics::gauge!(JOBS, "state" => s.as_str()).set(n as f64);
     }
     metrics::gauge!(WORKERS_LIVE).set(f64::from(g.workers_live));
+    for (s, n) in g.workers {
+        metrics::gauge!(WORKERS, "state" => s.as_str()).set(n as f64);
+    }
     let dir = state.config().data_dir.clone();
     if let Ok(Some(free)) = tokio::task::spawn_blocking(move || disk_free(&dir)).await {
         metrics::gauge!(DISK_FREE).set(free as f64);

@@ -82,6 +82,19 @@ async fn metrics_count_what_happened() {
     assert_eq!(status, StatusCode::NO_CONTENT, "{body}");
     // And one in hand.
     c.lease(w).await.unwrap();
+    // A second job, paused before any lease: its 4 tiles wait for no worker.
+    let paused = c
+        .submit(json!({"scene": scene(16, 16), "tile_size": 8}))
+        .await;
+    let (status, body) = c
+        .send(
+            Method::POST,
+            &format!("/v1/jobs/{}/pause", paused.id),
+            Some(CLIENT),
+            "",
+        )
+        .await;
+    assert_eq!(status, StatusCode::OK, "{body:?}");
 
     let (status, text) = c.send(Method::GET, "/metrics", None, "").await;
     assert_eq!(status, StatusCode::OK);
@@ -100,14 +113,25 @@ async fn metrics_count_what_happened() {
     assert_eq!(value(&s, "spindle_tile_seconds_count"), 1.0, "{text}");
     assert!(value(&s, "spindle_data_disk_free_bytes") > 0.0, "{text}");
     assert_eq!(value(&s, "spindle_workers_live"), 2.0, "{text}");
+    // `w` holds a lease, `w2` holds none.
+    for (state, n) in [
+        ("rendering", 1.0),
+        ("idle", 1.0),
+        ("draining", 0.0),
+        ("lost", 0.0),
+    ] {
+        let name = format!("spindle_workers{{state=\"{state}\"}}");
+        assert_eq!(value(&s, &name), n, "{text}");
+    }
 
     // The job is still running: of its 4 tiles, 1 is done, 1 leased and 2 wait (the failed
-    // one back in the queue).
+    // one back in the queue); the paused job's 4 tiles are not counted as waiting.
     assert_eq!(c.job(job.id).await.state, JobState::Running);
     assert_eq!(value(&s, "spindle_tiles_queued"), 2.0, "{text}");
     assert_eq!(value(&s, "spindle_tiles_leased"), 1.0, "{text}");
     assert_eq!(value(&s, "spindle_jobs{state=\"running\"}"), 1.0, "{text}");
     assert_eq!(value(&s, "spindle_jobs{state=\"queued\"}"), 0.0, "{text}");
+    assert_eq!(value(&s, "spindle_jobs{state=\"paused\"}"), 1.0, "{text}");
 
     // No token needed, and a client job's name or scene is nowhere in it.
     assert!(!text.contains("icosphere"));
