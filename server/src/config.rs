@@ -18,6 +18,10 @@ use crate::tls::TlsFiles;
 #[derive(Debug, Clone, clap::Parser)]
 #[command(name = "spindle-server", version, about)]
 pub struct Args {
+    /// How log lines are written: `text`, or `json` (one object a line, with the request id of
+    /// the request being served).
+    #[arg(long, env = "SPINDLE_LOG_FORMAT", value_enum, default_value_t = crate::logging::LogFormat::Text)]
+    pub log_format: crate::logging::LogFormat,
     /// Address to listen on. A non-loopback address needs both tokens, each at least 16 bytes.
     #[arg(long, env = "SPINDLE_LISTEN", default_value = "127.0.0.1:7878")]
     pub listen: SocketAddr,

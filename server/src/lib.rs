@@ -21,6 +21,7 @@ pub mod extract;
 pub mod jobs;
 pub mod lease;
 pub mod limits;
+pub mod logging;
 pub mod metrics;
 pub mod retention;
 pub mod serve;

@@ -7,13 +7,8 @@ use spindle_server::Args;
 
 #[tokio::main]
 async fn main() -> anyhow::Result<()> {
-    tracing_subscriber::fmt()
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| "info,tower_http=info".into()),
-        )
-        .init();
     let args = Args::from_process();
+    spindle_server::logging::init(args.log_format);
     let (listen, dashboard_listen) = (args.listen, args.dashboard_listen);
     let config = args.into_config()?;
     let listener = tokio::net::TcpListener::bind(listen)

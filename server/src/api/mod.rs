@@ -176,6 +176,16 @@ pub fn router(state: AppState) -> Router {
                 ))
                 .layer(tower::timeout::TimeoutLayer::new(timeouts.request)),
         )
-        .layer(tower_http::trace::TraceLayer::new_for_http())
+        .layer(
+            tower_http::trace::TraceLayer::new_for_http()
+                .make_span_with(|r: &axum::http::Request<_>| crate::logging::request_span(r)),
+        )
+        .layer(tower_http::request_id::PropagateRequestIdLayer::new(
+            axum::http::HeaderName::from_static(crate::logging::REQUEST_ID),
+        ))
+        .layer(tower_http::request_id::SetRequestIdLayer::new(
+            axum::http::HeaderName::from_static(crate::logging::REQUEST_ID),
+            crate::logging::RequestIds,
+        ))
         .with_state(state)
 }
