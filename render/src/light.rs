@@ -392,13 +392,12 @@ impl Light {
                 let (y, weight) = match SphericalRectangle::new(p, corner, edge_u, edge_v) {
                     Some(rect) => (rect.sample(u), radiance * rect.solid_angle()),
                     None => {
-                        // Small as seen from `p`: by area, `L cos_y A / r²` per sample.
-                        let y = corner + u[0] * edge_u + u[1] * edge_v;
-                        let to = p - y;
+                        // Small as seen from `p`: by area, `L cos_y / (pdf_A r²)` per sample.
+                        let a = self.sample_area(u)?;
+                        let to = p - a.point;
                         let d2 = to.length_squared();
-                        let area = edge_u.length() * edge_v.length();
                         let cos_y = normal.dot(to) / d2.sqrt();
-                        (y, radiance * (cos_y * area / d2))
+                        (a.point, radiance * (cos_y / (a.pdf_area * d2)))
                     }
                 };
                 let to = y - p;

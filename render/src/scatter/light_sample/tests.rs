@@ -1,5 +1,20 @@
 use super::*;
 
+/// The fluence rate at `p` estimated from the light points of a stratified 400×400 grid of
+/// samples: `mean(I_eff(p) / ‖y − p‖²)`.
+fn fluence_estimate(light: &Light, object: BoundingSphere, p: DVec3) -> Rgb {
+    let n = 400;
+    let mut sum = Rgb::ZERO;
+    for i in 0..n {
+        for j in 0..n {
+            let u = [(i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64];
+            let point = sample_light(light, object, u);
+            sum += point.intensity_toward(p) / point.position().distance_squared(p);
+        }
+    }
+    sum / (n * n) as f64
+}
+
 /// Ground truth: the fluence rate (scalar irradiance) at a point `p` at distance `d` from the
 /// centre of a sphere of uniform radiance `L_e` and radius `R` is `∫ L dω = L_e · 2π(1 − cos α)`
 /// with `sin α = R/d`. The estimator of it from light points is
@@ -28,17 +43,7 @@ fn sphere_light_points_estimate_the_fluence() {
             DVec3::new(0.0, 0.0, object_radius * 0.99),
             DVec3::new(-object_radius * 0.7, 0.5 * object_radius, 0.0),
         ] {
-            let n = 400;
-            let mut sum = Rgb::ZERO;
-            for i in 0..n {
-                for j in 0..n {
-                    let u = [(i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64];
-                    let point = sample_light(&light, object, u);
-                    let d2 = point.position().distance_squared(p);
-                    sum += point.intensity_toward(p) / d2;
-                }
-            }
-            let estimate = sum / (n * n) as f64;
+            let estimate = fluence_estimate(&light, object, p);
             let d = light_center.distance(p);
             let cos_alpha = (1.0 - (light_radius / d).powi(2)).sqrt();
             let truth = radiance * std::f64::consts::TAU * (1.0 - cos_alpha);
@@ -98,17 +103,7 @@ fn quad_light_points_estimate_the_fluence() {
             DVec3::new(0.3, 0.9, 0.1),
             DVec3::new(-0.7, -0.5, 0.0),
         ] {
-            let n = 400;
-            let mut sum = Rgb::ZERO;
-            for i in 0..n {
-                for j in 0..n {
-                    let u = [(i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64];
-                    let point = sample_light(&light, object, u);
-                    let d2 = point.position().distance_squared(p);
-                    sum += point.intensity_toward(p) / d2;
-                }
-            }
-            let estimate = sum / (n * n) as f64;
+            let estimate = fluence_estimate(&light, object, p);
             let in_front = (p - corner).dot(normal) > 0.0;
             let omega = crate::light::rectangle::tests::quad_solid_angle(p, corner, edge_u, edge_v);
             let truth = if in_front {
