@@ -9,10 +9,13 @@
 use std::time::Duration;
 
 use anyhow::{Context, Result, anyhow};
+use eventsource_stream::Eventsource;
+use futures_util::StreamExt;
+use futures_util::stream::BoxStream;
 use reqwest::StatusCode;
 use serde::de::DeserializeOwned;
 use spindle_common::protocol::{
-    ApiError, AssetStored, IDEMPOTENCY_KEY_HEADER, JobInfo, JobList, JobPatch, JobState,
+    ApiError, AssetStored, FarmEvent, IDEMPOTENCY_KEY_HEADER, JobInfo, JobList, JobPatch, JobState,
     MissingAssetsRequest, MissingAssetsResponse, SubmitJob, WorkerList,
 };
 
@@ -23,6 +26,8 @@ const TRIES: u32 = 5;
 const REQUEST_TIMEOUT: Duration = Duration::from_secs(60);
 /// Asset uploads and image downloads can be large.
 const TRANSFER_TIMEOUT: Duration = Duration::from_secs(900);
+/// An event stream is reopened after this long even if it never broke.
+const EVENT_STREAM_TIMEOUT: Duration = Duration::from_secs(6 * 3600);
 
 /// The coordinator answered with an error status.
 #[derive(Debug, thiserror::Error)]
@@ -55,6 +60,7 @@ impl Api {
         token: Option<String>,
         ca_cert: Option<&std::path::Path>,
     ) -> Result<Api> {
+        let base = &with_scheme(base);
         let url = reqwest::Url::parse(base).map_err(|e| {
             anyhow!(
                 "--server {base}: not a URL ({e}); expected https://HOST:PORT or http://HOST:PORT"
@@ -192,6 +198,34 @@ impl Api {
         self.json(|| self.http.post(url.clone())).await
     }
 
+    /// `GET /v1/events`, resuming after `last_id`: the farm's events as they happen. The stream
+    /// ends when the connection does; an event that is not a [`FarmEvent`] is an error item.
+    pub async fn events(
+        &self,
+        last_id: Option<u64>,
+    ) -> Result<BoxStream<'static, Result<FarmEvent>>> {
+        let url = self.url("/v1/events");
+        let resp = self
+            .send(|| {
+                let req = self.http.get(&url).timeout(EVENT_STREAM_TIMEOUT);
+                match last_id {
+                    Some(id) => req.header("last-event-id", id.to_string()),
+                    None => req,
+                }
+            })
+            .await?;
+        let base = self.base.clone();
+        Ok(resp
+            .bytes_stream()
+            .eventsource()
+            .map(move |item| {
+                let event = item.map_err(|e| anyhow!("the event stream of {base} broke: {e}"))?;
+                serde_json::from_str::<FarmEvent>(&event.data)
+                    .with_context(|| format!("the coordinator at {base} sent an unexpected event"))
+            })
+            .boxed())
+    }
+
     /// `GET /v1/jobs/{id}/image.exr` (the final image) or `image.png` (the preview).
     pub async fn image(&self, id: u64, file: ImageFile) -> Result<Vec<u8>> {
         let name = match file {
@@ -253,9 +287,15 @@ impl Api {
                 Ok(resp) => {
                     let status = resp.status();
                     let text = resp.text().await.unwrap_or_default();
-                    let message = serde_json::from_str::<ApiError>(&text)
+                    let mut message = serde_json::from_str::<ApiError>(&text)
                         .map(|e| e.error)
                         .unwrap_or_else(|_| text.chars().take(300).collect());
+                    if status == StatusCode::UNAUTHORIZED {
+                        message.push_str(
+                            " (give the coordinator's client token in SPINDLE_TOKEN or with \
+                             --token-file FILE)",
+                        );
+                    }
                     let err = StatusError {
                         base: self.base.clone(),
                         status,
@@ -291,6 +331,27 @@ impl Api {
             delay *= 2;
         }
     }
+}
+
+/// `HOST:PORT` given without a scheme: `http://` on a loopback host (the local coordinator
+/// needs no certificate), `https://` anywhere else (a token must not cross a network in the
+/// clear). A URL with a scheme is kept as it is.
+fn with_scheme(server: &str) -> String {
+    if server.contains("://") {
+        return server.to_string();
+    }
+    let loopback = reqwest::Url::parse(&format!("http://{server}"))
+        .ok()
+        .and_then(|u| u.host_str().map(str::to_owned))
+        .is_some_and(|host| {
+            let ip = host.trim_start_matches('[').trim_end_matches(']');
+            host.eq_ignore_ascii_case("localhost")
+                || ip
+                    .parse::<std::net::IpAddr>()
+                    .is_ok_and(|ip| ip.is_loopback())
+        });
+    let scheme = if loopback { "http" } else { "https" };
+    format!("{scheme}://{server}")
 }
 
 /// The filters and page of `GET /v1/jobs`.
@@ -343,7 +404,21 @@ pub fn check_repr_digest(header: Option<&str>, bytes: &[u8]) -> Result<(), Strin
 
 #[cfg(test)]
 mod tests {
-    use super::check_repr_digest;
+    use super::{check_repr_digest, with_scheme};
+
+    #[test]
+    fn a_server_without_scheme_is_http_only_on_loopback() {
+        assert_eq!(with_scheme("127.0.0.1:7878"), "http://127.0.0.1:7878");
+        assert_eq!(with_scheme("localhost:7878"), "http://localhost:7878");
+        assert_eq!(with_scheme("[::1]:7878"), "http://[::1]:7878");
+        assert_eq!(
+            with_scheme("farm.example:7878"),
+            "https://farm.example:7878"
+        );
+        assert_eq!(with_scheme("10.0.0.5:7878"), "https://10.0.0.5:7878");
+        assert_eq!(with_scheme("http://10.0.0.5:7878"), "http://10.0.0.5:7878");
+        assert!(super::Api::new("127.0.0.1:7878", None).is_ok());
+    }
 
     #[test]
     fn a_download_must_match_its_repr_digest() {

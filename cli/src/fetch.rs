@@ -45,10 +45,10 @@ pub async fn download(api: &Api, job: u64, output: Option<&Path>, preview: bool)
                 .await
                 .map(|j| {
                     format!(
-                        "{} ({}/{} tiles)",
+                        "{} ({} of {} done)",
                         j.state.as_str(),
                         j.tiles_done,
-                        j.tiles_total
+                        crate::status::count(j.tiles_total, "tile")
                     )
                 })
                 .unwrap_or_else(|_| "not done".into());

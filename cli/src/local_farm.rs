@@ -41,6 +41,15 @@ where
     F: FnOnce(Api) -> Fut,
     Fut: Future<Output = Result<JobInfo>>,
 {
+    render_waiting(workers, Wait::default(), submit).await
+}
+
+/// [`render`], waiting for the job as `wait` says.
+async fn render_waiting<F, Fut>(workers: usize, wait: Wait, submit: F) -> Result<FarmResult>
+where
+    F: FnOnce(Api) -> Fut,
+    Fut: Future<Output = Result<JobInfo>>,
+{
     let data = tempfile::Builder::new()
         .prefix("spindle-farm-")
         .tempdir()
@@ -78,7 +87,7 @@ where
 
     let api = Api::new(&base, Some(client_token))?;
     let job = submit(api.clone()).await?;
-    let info = wait_for(&api, job.id, Wait::default()).await?;
+    let info = wait_for(&api, job.id, wait).await?;
     require_done(&info)?;
     let exr = api.image(job.id, ImageFile::Exr).await?;
 
@@ -100,4 +109,44 @@ where
         exr,
         tiles_per_worker,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Without the event stream this wait would poll once an hour and never see the job end:
+    /// it ends within the test's minute only because the job's end arrives as an event.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn the_wait_follows_the_event_stream_not_polls() {
+        let scene =
+            std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/tiny.json"));
+        let hour = Duration::from_secs(3600);
+        let wait = Wait {
+            poll: hour,
+            quiet: hour,
+            unreachable_for: hour,
+        };
+        let result = tokio::time::timeout(
+            Duration::from_secs(60),
+            render_waiting(1, wait, |api| async move {
+                crate::submit::submit_scene_file(
+                    &api,
+                    scene,
+                    None,
+                    crate::submit::Check::AlreadyBuilt,
+                    &crate::submit::JobOptions {
+                        tile_size: 16,
+                        ..Default::default()
+                    },
+                )
+                .await
+            }),
+        )
+        .await
+        .expect("the job's end was not seen within a minute")
+        .unwrap();
+        assert_eq!(result.job.tiles_done, result.job.tiles_total);
+        assert!(result.job.tiles_total > 1);
+    }
 }

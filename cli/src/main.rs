@@ -26,20 +26,48 @@ use clap::{Parser, Subcommand};
     about = "Single scattering in refractive objects, rendered here or on a farm."
 )]
 struct Cli {
-    /// The coordinator's URL (for submit, status, fetch, cancel).
-    #[arg(
-        long,
-        global = true,
-        env = "SPINDLE_SERVER",
-        default_value = "http://127.0.0.1:7878"
-    )]
+    #[command(subcommand)]
+    command: Command,
+}
+
+/// How to reach a coordinator: the options of every command that talks to one.
+#[derive(Debug, clap::Args)]
+struct FarmArgs {
+    /// The coordinator: `https://HOST:PORT`, `http://HOST:PORT`, or `HOST:PORT` (http on a
+    /// loopback address, https elsewhere).
+    #[arg(long, env = "SPINDLE_SERVER", default_value = "http://127.0.0.1:7878")]
     server: String,
     /// PEM file of the CA certificates that signed an https coordinator's certificate (a
     /// private CA); without it https trusts the system's roots.
-    #[arg(long, global = true, env = "SPINDLE_CA_CERT")]
+    #[arg(long, env = "SPINDLE_CA_CERT")]
     ca_cert: Option<std::path::PathBuf>,
-    #[command(subcommand)]
-    command: Command,
+    /// Read the client token from this file instead of SPINDLE_TOKEN.
+    #[arg(long, env = "SPINDLE_TOKEN_FILE")]
+    token_file: Option<std::path::PathBuf>,
+}
+
+impl FarmArgs {
+    /// A client of the coordinator. The token comes from `--token-file` or `SPINDLE_TOKEN`,
+    /// never from the command line, where every user of the machine could see it.
+    fn api(&self) -> anyhow::Result<api::Api> {
+        use anyhow::Context;
+        let token = match &self.token_file {
+            Some(path) => Some(std::fs::read_to_string(path).with_context(|| {
+                format!("--token-file {}: cannot read the token", path.display())
+            })?),
+            None => std::env::var("SPINDLE_TOKEN").ok(),
+        };
+        api::Api::with_ca_cert(&self.server, token, self.ca_cert.as_deref())
+    }
+}
+
+/// A command that talks to a coordinator: its own options and how to reach the coordinator.
+#[derive(Debug, clap::Args)]
+struct OnFarm<A: clap::Args> {
+    #[command(flatten)]
+    args: A,
+    #[command(flatten)]
+    farm: FarmArgs,
 }
 
 #[derive(Debug, Subcommand)]
@@ -47,27 +75,27 @@ enum Command {
     /// Render a scene on this machine to an OpenEXR file (and a PNG preview beside it).
     Render(render::RenderArgs),
     /// Send a scene and its meshes to the coordinator; prints the job id.
-    Submit(submit::SubmitArgs),
+    Submit(OnFarm<submit::SubmitArgs>),
     /// Show one job, or every job.
-    Status(status::StatusArgs),
+    Status(OnFarm<status::StatusArgs>),
     /// List jobs (filter by state or name), oldest first.
-    Jobs(jobs::JobsArgs),
+    Jobs(OnFarm<jobs::JobsArgs>),
     /// Pause a job: no new tiles are handed out; tiles in progress finish.
-    Pause(control::JobArg),
+    Pause(OnFarm<control::JobArg>),
     /// Resume a paused job.
-    Resume(control::JobArg),
+    Resume(OnFarm<control::JobArg>),
     /// Put a failed or cancelled job back in the queue (its finished tiles are kept).
-    Requeue(control::JobArg),
+    Requeue(OnFarm<control::JobArg>),
     /// Change a job's priority (higher runs first).
-    Priority(control::PriorityArgs),
+    Priority(OnFarm<control::PriorityArgs>),
     /// Delete a finished job: its tiles, images and records (--force for an unfinished one).
-    Delete(control::DeleteArgs),
+    Delete(OnFarm<control::DeleteArgs>),
     /// Download a finished job's image.
-    Fetch(fetch::FetchArgs),
+    Fetch(OnFarm<fetch::FetchArgs>),
     /// Cancel a job.
-    Cancel(cancel::CancelArgs),
+    Cancel(OnFarm<cancel::CancelArgs>),
     /// List the farm's workers (state, lease, labels, tiles, throughput), or drain one.
-    Workers(workers::WorkersArgs),
+    Workers(OnFarm<workers::WorkersArgs>),
 }
 
 fn main() -> ExitCode {
@@ -101,22 +129,19 @@ fn main() -> ExitCode {
 }
 
 async fn run(cli: Cli) -> anyhow::Result<()> {
-    let api = || {
-        let token = std::env::var("SPINDLE_TOKEN").ok();
-        api::Api::with_ca_cert(&cli.server, token, cli.ca_cert.as_deref())
-    };
+    use control::Change;
     match &cli.command {
         Command::Render(args) => render::run(args).await,
-        Command::Submit(args) => submit::run(&api()?, args).await,
-        Command::Status(args) => status::run(&api()?, args).await,
-        Command::Fetch(args) => fetch::run(&api()?, args).await,
-        Command::Cancel(args) => cancel::run(&api()?, args).await,
-        Command::Jobs(args) => jobs::run(&api()?, args).await,
-        Command::Pause(args) => control::change(&api()?, args, control::Change::Pause).await,
-        Command::Resume(args) => control::change(&api()?, args, control::Change::Resume).await,
-        Command::Requeue(args) => control::change(&api()?, args, control::Change::Requeue).await,
-        Command::Priority(args) => control::priority(&api()?, args).await,
-        Command::Delete(args) => control::delete(&api()?, args).await,
-        Command::Workers(args) => workers::run(&api()?, args).await,
+        Command::Submit(c) => submit::run(&c.farm.api()?, &c.args).await,
+        Command::Status(c) => status::run(&c.farm.api()?, &c.args).await,
+        Command::Fetch(c) => fetch::run(&c.farm.api()?, &c.args).await,
+        Command::Cancel(c) => cancel::run(&c.farm.api()?, &c.args).await,
+        Command::Jobs(c) => jobs::run(&c.farm.api()?, &c.args).await,
+        Command::Pause(c) => control::change(&c.farm.api()?, &c.args, Change::Pause).await,
+        Command::Resume(c) => control::change(&c.farm.api()?, &c.args, Change::Resume).await,
+        Command::Requeue(c) => control::change(&c.farm.api()?, &c.args, Change::Requeue).await,
+        Command::Priority(c) => control::priority(&c.farm.api()?, &c.args).await,
+        Command::Delete(c) => control::delete(&c.farm.api()?, &c.args).await,
+        Command::Workers(c) => workers::run(&c.farm.api()?, &c.args).await,
     }
 }

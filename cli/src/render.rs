@@ -30,9 +30,10 @@ use spindle_common::scene_files::load_scene;
 pub struct RenderArgs {
     /// The scene file (JSON); OBJ paths in it are relative to it.
     pub scene: PathBuf,
-    /// The OpenEXR file to write; the preview goes to the same path with `.png`.
-    #[arg(short, long)]
-    pub output: PathBuf,
+    /// The OpenEXR file to write (`.exr`); the preview goes to the same path with `.png`.
+    /// Optional with `--pixel`.
+    #[arg(short, long, required_unless_present = "pixel")]
+    pub output: Option<PathBuf>,
     /// Local farm workers (default: one per two cores, at least two); 0 renders in this
     /// process without the farm.
     #[arg(long)]
@@ -48,7 +49,7 @@ pub struct RenderArgs {
     #[arg(long, value_parser = parse_crop)]
     pub crop: Option<TileRect>,
     /// Render only pixel `x,y` and print its value, for replaying one pixel (needs
-    /// `--workers 0`).
+    /// `--workers 0`; with `-o` the one-pixel image is written too).
     #[arg(long, value_parser = parse_pixel)]
     pub pixel: Option<(u32, u32)>,
     /// Tile edge in pixels on the local farm.
@@ -65,6 +66,13 @@ pub struct RenderArgs {
 }
 
 impl RenderArgs {
+    /// The EXR to write (`-o`, which only `--pixel` may leave out).
+    fn output(&self) -> Result<&std::path::Path> {
+        self.output.as_deref().ok_or_else(|| {
+            anyhow::anyhow!("-o OUT.exr is required (only --pixel may leave it out)")
+        })
+    }
+
     /// Applies `--spp` and `--seed` to a scene.
     fn edit(&self, scene: &mut SceneDescription) {
         if let Some(spp) = self.spp {
@@ -109,6 +117,9 @@ fn parse_pixel(text: &str) -> Result<(u32, u32), String> {
 }
 
 pub async fn run(args: &RenderArgs) -> Result<()> {
+    if let Some(output) = &args.output {
+        check_output(output)?;
+    }
     let workers = args
         .workers
         .unwrap_or_else(crate::local_farm::default_workers);
@@ -119,6 +130,35 @@ pub async fn run(args: &RenderArgs) -> Result<()> {
         bail!("--crop and --pixel render in this process: add --workers 0");
     }
     on_local_farm(args, workers).await
+}
+
+/// Refuses, before any rendering, an output the image could not be written to as asked: not
+/// an `.exr` (its PNG preview, written beside it with `.png`, would replace it) or in a
+/// directory that does not exist.
+fn check_output(output: &std::path::Path) -> Result<()> {
+    let is_exr = output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    if !is_exr {
+        bail!(
+            "-o {}: must name an OpenEXR file ending in .exr (the PNG preview is written \
+             beside it as {})",
+            output.display(),
+            output.with_extension("png").display()
+        );
+    }
+    let dir = match output.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => std::path::Path::new("."),
+    };
+    if !dir.is_dir() {
+        bail!(
+            "-o {}: the directory {} does not exist",
+            output.display(),
+            dir.display()
+        );
+    }
+    Ok(())
 }
 
 /// `--workers N`: through the embedded farm.
@@ -163,13 +203,13 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
     let preview = write_outputs(&image, args)?;
     println!(
         "rendered {} ({}x{}, {} spp) on a local farm of {workers} workers in {:.2} s \
-         ({} tiles of {} px: {} per worker)",
-        args.output.display(),
+         ({} of {} px: {} per worker)",
+        args.output()?.display(),
         desc.film.width,
         desc.film.height,
         desc.film.spp,
         started.elapsed().as_secs_f64(),
-        result.job.tiles_total,
+        crate::status::count(result.job.tiles_total, "tile"),
         args.tile_size,
         per_worker.join("+"),
     );
@@ -233,6 +273,9 @@ fn in_process(args: &RenderArgs) -> Result<()> {
         );
         println!("  surface        {:?}", r.surface.to_array());
         println!("  single_scatter {:?}", r.single_scatter.to_array());
+        if args.output.is_none() {
+            return Ok(());
+        }
     }
 
     let rows: u64 = spindle_common::tile::split_centre_first(region.width, region.height, 32)
@@ -279,7 +322,7 @@ fn in_process(args: &RenderArgs) -> Result<()> {
     println!(
         "rendered {} ({}x{}{}, {} spp, {} triangles in {} objects, {} lights, {} warnings) in {:.2} s \
          (scene build {:.2} s)",
-        args.output.display(),
+        args.output()?.display(),
         full.width,
         full.height,
         if region == full {
@@ -331,7 +374,7 @@ fn describe(
 /// Writes the EXR and the PNG preview beside it (and with `--error-png` the relative-error
 /// PNG); returns the preview's path.
 fn write_outputs(image: &Image, args: &RenderArgs) -> Result<PathBuf> {
-    let output = &args.output;
+    let output = args.output()?;
     if args.error_png {
         let path = output.with_extension("stderr.png");
         image

@@ -13,16 +13,27 @@ pub struct StatusArgs {
     /// Print the coordinator's JSON instead of text.
     #[arg(long)]
     pub json: bool,
+    /// Follow the job until it ends (a progress bar on a terminal), then show it; exits
+    /// non-zero unless it ended `done`.
+    #[arg(long, requires = "job")]
+    pub follow: bool,
 }
 
 pub async fn run(api: &Api, args: &StatusArgs) -> Result<()> {
     match args.job {
         Some(id) => {
-            let info = api.job(id).await?;
+            let info = if args.follow {
+                crate::progress::wait_for(api, id, crate::progress::Wait::default()).await?
+            } else {
+                api.job(id).await?
+            };
             if args.json {
                 println!("{}", serde_json::to_string_pretty(&info)?);
             } else {
                 print!("{}", describe(&info));
+            }
+            if args.follow {
+                crate::progress::require_done(&info)?;
             }
         }
         None => {
@@ -95,6 +106,16 @@ fn describe(j: &JobInfo) -> String {
     s
 }
 
+/// `n` things, singular or plural: `count(1, "tile") == "1 tile"`.
+pub fn count(n: impl Into<u64>, noun: &str) -> String {
+    let n = n.into();
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
+    }
+}
+
 /// `HH:MM:SS` UTC of a time in ms since the Unix epoch.
 pub fn utc_time(ms: i64) -> String {
     let s = ms.div_euclid(1000).rem_euclid(86_400);
@@ -149,6 +170,13 @@ mod tests {
             text.starts_with("job 3 (box): queued — no live worker has labels pool=night\n"),
             "{text}"
         );
+    }
+
+    #[test]
+    fn counts_are_singular_or_plural() {
+        assert_eq!(count(1u32, "tile"), "1 tile");
+        assert_eq!(count(0u32, "tile"), "0 tiles");
+        assert_eq!(count(12u64, "tile"), "12 tiles");
     }
 
     #[test]

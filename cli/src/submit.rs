@@ -45,6 +45,12 @@ pub struct SubmitArgs {
     /// Who submits it, a label shown in `spindle jobs` (default: $USER).
     #[arg(long)]
     pub submitter: Option<String>,
+    /// Camera samples per pixel (overrides `film.spp`).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Random seed (overrides `film.seed`).
+    #[arg(long)]
+    pub seed: Option<u64>,
     /// With --wait: download the final EXR here when the job is done.
     #[arg(short, long, requires = "wait")]
     pub output: Option<std::path::PathBuf>,
@@ -68,7 +74,15 @@ pub async fn run(api: &Api, args: &SubmitArgs) -> Result<()> {
             .or_else(|| std::env::var("USER").ok())
             .filter(|s| !s.is_empty()),
     };
-    let job = submit_scene_file(api, &args.scene, None, Check::Build, &options).await?;
+    let edit = |scene: &mut SceneDescription| {
+        if let Some(spp) = args.spp {
+            scene.film.spp = spp;
+        }
+        if let Some(seed) = args.seed {
+            scene.film.seed = seed;
+        }
+    };
+    let job = submit_scene_file(api, &args.scene, Some(&edit), Check::Build, &options).await?;
     println!("{}", job.id);
     if args.wait {
         let end = wait_for(api, job.id, Wait::default()).await?;

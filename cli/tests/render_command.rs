@@ -63,7 +63,7 @@ fn renders_the_tiny_example_to_exr_and_png_matching_the_library() {
     // The file holds exactly what the library renders for the whole frame.
     let mut assets = Assets::new();
     for object in &desc.objects {
-        if let spindle_common::scene::Shape::Obj { path } = &object.shape {
+        if let spindle_common::scene::Shape::Obj { path, .. } = &object.shape {
             assets.insert(
                 path.clone(),
                 std::fs::read(repo().join("scenes").join(path)).unwrap(),
@@ -106,4 +106,57 @@ fn a_bad_scene_fails_with_the_json_path() {
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(stderr.contains("camera"), "{stderr}");
     assert!(!dir.path().join("x.exr").exists());
+}
+
+/// `spindle render` with `args`, in `dir`.
+fn render_in(dir: &Path, args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_spindle"))
+        .current_dir(dir)
+        .arg("render")
+        .arg(repo().join("scenes/tiny.json"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn outputs_that_cannot_be_written_as_asked_are_refused_before_rendering() {
+    let dir = tempfile::tempdir().unwrap();
+    // The PNG preview would replace a `.png` output: refused, nothing written.
+    let out = render_in(dir.path(), &["-o", "out.png", "--workers", "0"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("-o out.png: must name an OpenEXR file"),
+        "{stderr}"
+    );
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    // A missing directory is named before any work (no plan printed, nothing rendered).
+    let out = render_in(dir.path(), &["-o", "no/such/dir/out.exr"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("the directory no/such/dir does not exist"),
+        "{stderr}"
+    );
+    assert!(
+        out.stdout.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    // -o is required, except with --pixel, which prints the pixel and writes nothing.
+    let out = render_in(dir.path(), &[]);
+    assert!(!out.status.success());
+    let out = render_in(dir.path(), &["--workers", "0", "--pixel", "16,12"]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("pixel 16,12:") && stdout.contains("single_scatter"),
+        "{stdout}"
+    );
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }

@@ -246,6 +246,60 @@ async fn submit_wait_status_fetch_and_cancel_against_a_coordinator() {
             text(&out)
         );
 
+        // `status --follow` waits for a job submitted without --wait and shows how it ended;
+        // `--spp` and `--seed` of submit change the scene as those of render do.
+        let out = spindle(
+            &["submit", s, "--tile-size", "8", "--spp", "2", "--seed", "5"],
+            Some(&farm),
+        )
+        .await;
+        assert!(out.status.success(), "{}", text(&out));
+        let edited: u64 = String::from_utf8_lossy(&out.stdout).trim().parse().unwrap();
+        let out = spindle(&["status", &edited.to_string(), "--follow"], Some(&farm)).await;
+        assert!(out.status.success(), "{}", text(&out));
+        assert!(
+            String::from_utf8_lossy(&out.stdout)
+                .starts_with(&format!("job {edited} (scene): done\n")),
+            "{}",
+            text(&out)
+        );
+        let edited_exr = dir.path().join("edited.exr");
+        let out = spindle(
+            &[
+                "fetch",
+                &edited.to_string(),
+                "-o",
+                edited_exr.to_str().unwrap(),
+            ],
+            Some(&farm),
+        )
+        .await;
+        assert!(out.status.success(), "{}", text(&out));
+        let (mut desc, assets) = test_scene(24, 16, 1);
+        desc.film.spp = 2;
+        desc.film.seed = 5;
+        assert_bit_identical(
+            &read_exr(&edited_exr).unwrap(),
+            &reference_image(&desc, &assets).unwrap(),
+        );
+
+        // `--server HOST:PORT` without a scheme (http on loopback) and the token from a file.
+        let token_file = dir.path().join("token");
+        std::fs::write(&token_file, format!("{}\n", farm.client_token)).unwrap();
+        let out = spindle(
+            &[
+                "status",
+                &edited.to_string(),
+                "--server",
+                &format!("127.0.0.1:{}", farm.port),
+                "--token-file",
+                token_file.to_str().unwrap(),
+            ],
+            None,
+        )
+        .await;
+        assert!(out.status.success(), "{}", text(&out));
+
         let exr = dir.path().join("fetched.exr");
         let out = spindle(
             &["fetch", &id.to_string(), "-o", exr.to_str().unwrap()],
@@ -292,8 +346,11 @@ async fn submit_wait_status_fetch_and_cancel_against_a_coordinator() {
             .env("SPINDLE_TOKEN", "wrong");
         let out = cmd.output().unwrap();
         assert!(!out.status.success());
+        let stderr = String::from_utf8_lossy(&out.stderr);
         assert!(
-            String::from_utf8_lossy(&out.stderr).contains("401"),
+            stderr.contains("401")
+                && stderr.contains("SPINDLE_TOKEN")
+                && stderr.contains("--token-file"),
             "{}",
             text(&out)
         );
