@@ -97,7 +97,10 @@ impl Model {
         Ok(Model {
             name,
             family: "mesh",
-            shape: desc::Shape::Obj { path: key },
+            shape: desc::Shape::Obj {
+                path: key,
+                crease_angle: None,
+            },
             transform: desc::Transform {
                 scale: [scale; 3],
                 rotate_deg: [0.0; 3],

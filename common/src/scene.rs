@@ -124,7 +124,13 @@ pub struct Object {
 pub enum Shape {
     /// A Wavefront OBJ file; `path` is relative to the scene file. In a farm job the path is
     /// only a key into the job's asset table (see `protocol`): nobody opens it as given.
-    Obj { path: String },
+    /// A file without normals is smoothed across every edge, or with `crease_angle` (degrees,
+    /// 0…180) only across edges where its faces meet at less than that angle (0: flat faces).
+    Obj {
+        path: String,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        crease_angle: Option<f64>,
+    },
     /// Unit-radius icosahedron subdivided `subdivisions` times (20·4^s triangles), scaled to `radius`.
     Icosphere { radius: f64, subdivisions: u32 },
     /// Icosphere displaced radially by a smooth function:

@@ -50,7 +50,7 @@ pub fn load_scene(path: &Path) -> Result<SceneFiles, SceneFileError> {
     let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let mut assets = HashMap::new();
     for (index, object) in desc.objects.iter().enumerate() {
-        if let Shape::Obj { path: obj } = &object.shape {
+        if let Shape::Obj { path: obj, .. } = &object.shape {
             if assets.contains_key(obj) {
                 continue;
             }

@@ -286,7 +286,20 @@ fn check_object(path: &str, object: &Object) -> Check {
 
 fn check_shape(path: &str, shape: &Shape) -> Check {
     match shape {
-        Shape::Obj { path: file } => {
+        Shape::Obj {
+            path: file,
+            crease_angle,
+        } => {
+            if let Some(angle) = *crease_angle {
+                let angle_path = format!("{path}.crease_angle");
+                check_finite(&angle_path, angle)?;
+                if !(0.0..=180.0).contains(&angle) {
+                    return Err(SceneError::new(
+                        angle_path,
+                        format!("must be an angle in degrees from 0 to 180, got {angle}"),
+                    ));
+                }
+            }
             if file.trim().is_empty() {
                 return Err(SceneError::new(
                     format!("{path}.path"),

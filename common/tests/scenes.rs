@@ -24,7 +24,7 @@ fn every_example_scene_loads_and_validates() {
         let scene = SceneDescription::from_json(&text)
             .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         for (i, object) in scene.objects.iter().enumerate() {
-            if let Shape::Obj { path: mesh } = &object.shape {
+            if let Shape::Obj { path: mesh, .. } = &object.shape {
                 let file = path.parent().unwrap().join(mesh);
                 let text = std::fs::read_to_string(&file).unwrap_or_else(|e| {
                     panic!("{}: objects[{i}]: {}: {e}", path.display(), file.display())

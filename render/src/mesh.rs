@@ -57,32 +57,9 @@ impl TriangleMesh {
     pub fn new(
         positions: Vec<DVec3>,
         normals: Option<Vec<DVec3>>,
-        mut triangles: Vec<[u32; 3]>,
+        triangles: Vec<[u32; 3]>,
     ) -> Result<TriangleMesh, MeshError> {
-        if triangles.is_empty() {
-            return Err(MeshError::Empty);
-        }
-        if let Some((vertex, p)) = positions.iter().enumerate().find(|(_, p)| !p.is_finite()) {
-            return Err(MeshError::NonFinitePosition {
-                vertex,
-                value: p.to_array(),
-            });
-        }
-        for (triangle, t) in triangles.iter().enumerate() {
-            if let Some(&index) = t.iter().find(|&&i| i as usize >= positions.len()) {
-                return Err(MeshError::IndexOutOfRange {
-                    triangle,
-                    index,
-                    vertices: positions.len(),
-                });
-            }
-        }
-        // Orient an inside-out closed mesh outward (the volume is only meaningful when closed).
-        if signed_volume(&positions, &triangles) < 0.0 && edge_report(&positions, &triangles).0 {
-            for t in &mut triangles {
-                t.swap(1, 2);
-            }
-        }
+        let triangles = checked_and_oriented(&positions, triangles)?;
         let smooth = smooth_normals(&positions, &triangles);
         let normals = match normals {
             None => smooth,
@@ -112,6 +89,53 @@ impl TriangleMesh {
             normals,
             triangles,
         })
+    }
+
+    /// A mesh from positions and triangles without normals, smoothed only across edges where
+    /// its faces meet at less than `crease` radians (see [`creased_normals`]): π is
+    /// [`TriangleMesh::new`]'s smooth rule exactly, 0 gives flat faces. Vertices on a crease
+    /// are split, one per normal.
+    pub fn with_crease(
+        positions: Vec<DVec3>,
+        triangles: Vec<[u32; 3]>,
+        crease: f64,
+    ) -> Result<TriangleMesh, MeshError> {
+        let triangles = checked_and_oriented(&positions, triangles)?;
+        let (positions, triangles, normals) = creased_normals(&positions, &triangles, crease);
+        Ok(TriangleMesh {
+            positions,
+            normals,
+            triangles,
+        })
+    }
+
+    /// `(sharp, shared)`: of the edges shared by exactly two triangles (vertices welded by exact
+    /// position), how many join faces whose normals are more than `angle` radians apart.
+    pub fn sharp_edges(&self, angle: f64) -> (usize, usize) {
+        let canon = weld(&self.positions);
+        let mut faces: std::collections::HashMap<(u32, u32), Vec<usize>> = Default::default();
+        for (ti, t) in self.triangles.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (canon[t[k] as usize], canon[t[(k + 1) % 3] as usize]);
+                faces.entry((a.min(b), a.max(b))).or_default().push(ti);
+            }
+        }
+        let normal = |ti: usize| {
+            let [p0, p1, p2] = self.corners(ti);
+            (p1 - p0).cross(p2 - p0).try_normalize()
+        };
+        let cos = angle.cos();
+        let mut sharp = 0;
+        let mut shared = 0;
+        for uses in faces.values().filter(|u| u.len() == 2) {
+            shared += 1;
+            if let (Some(a), Some(b)) = (normal(uses[0]), normal(uses[1]))
+                && a.dot(b) < cos
+            {
+                sharp += 1;
+            }
+        }
+        (sharp, shared)
     }
 
     pub fn positions(&self) -> &[DVec3] {
@@ -221,6 +245,39 @@ impl TriangleMesh {
     }
 }
 
+/// The checks every mesh passes (triangles, finite coordinates, indices in range), and a
+/// closed mesh wound inside-out (negative enclosed volume) rewound outward.
+fn checked_and_oriented(
+    positions: &[DVec3],
+    mut triangles: Vec<[u32; 3]>,
+) -> Result<Vec<[u32; 3]>, MeshError> {
+    if triangles.is_empty() {
+        return Err(MeshError::Empty);
+    }
+    if let Some((vertex, p)) = positions.iter().enumerate().find(|(_, p)| !p.is_finite()) {
+        return Err(MeshError::NonFinitePosition {
+            vertex,
+            value: p.to_array(),
+        });
+    }
+    for (triangle, t) in triangles.iter().enumerate() {
+        if let Some(&index) = t.iter().find(|&&i| i as usize >= positions.len()) {
+            return Err(MeshError::IndexOutOfRange {
+                triangle,
+                index,
+                vertices: positions.len(),
+            });
+        }
+    }
+    // The volume is only meaningful when the mesh is closed.
+    if signed_volume(positions, &triangles) < 0.0 && edge_report(positions, &triangles).0 {
+        for t in &mut triangles {
+            t.swap(1, 2);
+        }
+    }
+    Ok(triangles)
+}
+
 /// A triangle is degenerate when its area is below 1e-12 of the square of its longest edge
 /// (collinear or repeated corners).
 fn is_degenerate([p0, p1, p2]: [DVec3; 3]) -> bool {
@@ -319,6 +376,110 @@ pub fn smooth_normals(positions: &[DVec3], triangles: &[[u32; 3]]) -> Vec<DVec3>
                 .unwrap_or(DVec3::Z)
         })
         .collect()
+}
+
+/// Normals for a mesh whose file gives none, smoothed only across edges where the faces meet
+/// at less than `crease` (radians; π smooths everywhere, 0 gives flat faces).
+///
+/// Each triangle corner's normal is the angle-weighted sum of the unit normals of the faces
+/// around its vertex (welded by exact position) that are within `crease` of the corner's own
+/// face, summed in triangle order. A vertex whose corners get different normals is split into
+/// one vertex per normal; positions are copied, so welding (and so the mesh's closedness) is
+/// unchanged. When no vertex splits, positions, triangles and normals are exactly those of
+/// [`smooth_normals`] (the same sums in the same order).
+pub fn creased_normals(
+    positions: &[DVec3],
+    triangles: &[[u32; 3]],
+    crease: f64,
+) -> (Vec<DVec3>, Vec<[u32; 3]>, Vec<DVec3>) {
+    let canon = weld(positions);
+    let faces: Vec<Option<(DVec3, [f64; 3])>> = triangles
+        .iter()
+        .map(|t| {
+            let [p0, p1, p2] = t.map(|i| positions[i as usize]);
+            let n = (p1 - p0).cross(p2 - p0).try_normalize()?;
+            Some((
+                n,
+                [
+                    corner_angle(p1 - p0, p2 - p0),
+                    corner_angle(p2 - p1, p0 - p1),
+                    corner_angle(p0 - p2, p1 - p2),
+                ],
+            ))
+        })
+        .collect();
+    // The corners around each welded vertex, in triangle order (compressed rows).
+    let mut start = vec![0usize; positions.len() + 1];
+    for t in triangles {
+        for &i in t {
+            start[canon[i as usize] as usize + 1] += 1;
+        }
+    }
+    for v in 0..positions.len() {
+        start[v + 1] += start[v];
+    }
+    let mut fill = start.clone();
+    let mut around = vec![(0u32, 0u8); start[positions.len()]];
+    for (ti, t) in triangles.iter().enumerate() {
+        for (k, &i) in t.iter().enumerate() {
+            let v = canon[i as usize] as usize;
+            around[fill[v]] = (ti as u32, k as u8);
+            fill[v] += 1;
+        }
+    }
+    let centroid = positions.iter().copied().sum::<DVec3>() / positions.len().max(1) as f64;
+    let cos_crease = crease.cos();
+    // At π every face counts (a dot product of opposite unit normals may round below -1).
+    let everything = crease >= std::f64::consts::PI;
+    let corner_normal = |ti: usize, k: usize| {
+        let i = triangles[ti][k] as usize;
+        let v = canon[i] as usize;
+        let own = faces[ti].map(|(n, _)| n);
+        let mut sum = DVec3::ZERO;
+        for &(tj, kj) in &around[start[v]..start[v + 1]] {
+            let Some((n, angles)) = faces[tj as usize] else {
+                continue;
+            };
+            // A degenerate corner takes the smooth normal; others only faces within the crease.
+            if everything || own.is_none_or(|own| own.dot(n) >= cos_crease) {
+                sum += n * angles[kj as usize];
+            }
+        }
+        sum.try_normalize()
+            .or_else(|| (positions[i] - centroid).try_normalize())
+            .unwrap_or(DVec3::Z)
+    };
+    let mut out_positions = positions.to_vec();
+    let mut out_normals: Vec<Option<DVec3>> = vec![None; positions.len()];
+    // Further normals of a split vertex: (original vertex, normal bits) -> new vertex.
+    let mut split: std::collections::HashMap<(u32, [u64; 3]), u32> = Default::default();
+    let mut out_triangles = triangles.to_vec();
+    for (ti, t) in triangles.iter().enumerate() {
+        for (k, &i) in t.iter().enumerate() {
+            let n = corner_normal(ti, k);
+            match out_normals[i as usize] {
+                None => out_normals[i as usize] = Some(n),
+                Some(first)
+                    if first.to_array().map(f64::to_bits) == n.to_array().map(f64::to_bits) => {}
+                Some(_) => {
+                    let key = (i, n.to_array().map(f64::to_bits));
+                    let new = *split.entry(key).or_insert_with(|| {
+                        out_positions.push(positions[i as usize]);
+                        out_normals.push(Some(n));
+                        (out_positions.len() - 1) as u32
+                    });
+                    out_triangles[ti][k] = new;
+                }
+            }
+        }
+    }
+    // Vertices no triangle uses keep the smooth rule's fallback.
+    let normals = out_normals
+        .into_iter()
+        .zip(&out_positions)
+        .map(|(n, p)| n.unwrap_or_else(|| (*p - centroid).try_normalize().unwrap_or(DVec3::Z)))
+        .collect();
+    (out_positions, out_triangles, normals)
 }
 
 /// The angle between two edge vectors, by atan2 (accurate near 0 and π, unlike acos).

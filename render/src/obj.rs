@@ -2,7 +2,8 @@
 //!
 //! Faces are triangulated (tobj's fan, exact for convex polygons), all groups and objects of a
 //! file become one mesh, and the file's normals are used only when every vertex has one
-//! (otherwise smooth angle-weighted normals are computed). Coordinates that are not finite and
+//! (otherwise smooth angle-weighted normals are computed, across every edge or only across
+//! edges below a crease angle). Coordinates that are not finite and
 //! indices out of range are errors; materials (`mtllib`) are ignored.
 
 use std::io::BufReader;
@@ -24,6 +25,20 @@ pub enum ObjError {
 
 /// Parses OBJ bytes into a triangle mesh (file units, file orientation).
 pub fn parse_obj(bytes: &[u8]) -> Result<TriangleMesh, ObjError> {
+    Ok(parse_obj_with(bytes, None)?.mesh)
+}
+
+/// A parsed OBJ file and whether its normals were used.
+#[derive(Debug, Clone)]
+pub struct ObjMesh {
+    pub mesh: TriangleMesh,
+    /// Every vertex had a normal in the file, and they were used.
+    pub normals_given: bool,
+}
+
+/// [`parse_obj`]; a file without normals is smoothed only across edges where its faces meet
+/// at less than `crease` radians when given (see [`TriangleMesh::with_crease`]).
+pub fn parse_obj_with(bytes: &[u8], crease: Option<f64>) -> Result<ObjMesh, ObjError> {
     let options = tobj::LoadOptions {
         single_index: true,
         triangulate: true,
@@ -76,7 +91,15 @@ pub fn parse_obj(bytes: &[u8]) -> Result<TriangleMesh, ObjError> {
         return Err(ObjError::NonFinite(p.to_array()));
     }
     let normals = (all_have_normals && !normals.is_empty()).then_some(normals);
-    Ok(TriangleMesh::new(positions, normals, triangles)?)
+    let normals_given = normals.is_some();
+    let mesh = match (normals, crease) {
+        (None, Some(crease)) => TriangleMesh::with_crease(positions, triangles, crease)?,
+        (normals, _) => TriangleMesh::new(positions, normals, triangles)?,
+    };
+    Ok(ObjMesh {
+        mesh,
+        normals_given,
+    })
 }
 
 #[cfg(test)]

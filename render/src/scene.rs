@@ -22,7 +22,7 @@ use crate::interfaces::{self, SecondInterface};
 use crate::light::{Light, SceneSphere};
 use crate::medium::Medium;
 use crate::mesh::{MeshReport, TriangleMesh};
-use crate::obj::parse_obj;
+use crate::obj::parse_obj_with;
 use crate::procedural::{MAX_SUBDIVISIONS, bumpy_sphere, icosphere};
 use crate::scatter::prune::bounds::PruneBounds;
 use crate::transform::Transform;
@@ -148,13 +148,23 @@ impl Scene {
             .enumerate()
             .map(|(i, o)| build_object(i, o, assets))
             .collect::<Result<Vec<_>, _>>()?;
+        let (objects, smoothed): (Vec<Object>, Vec<Option<SmoothedCreases>>) =
+            objects.into_iter().unzip();
 
         let mut warnings = Vec::new();
-        for (o, d) in objects.iter().zip(&scene.objects) {
+        for ((o, d), smoothed) in objects.iter().zip(&scene.objects).zip(smoothed) {
             let what = match &d.shape {
-                desc::Shape::Obj { path } => format!("{} ({path})", o.name),
+                desc::Shape::Obj { path, .. } => format!("{} ({path})", o.name),
                 _ => o.name.clone(),
             };
+            if let Some(SmoothedCreases { sharp, shared }) = smoothed {
+                warnings.push(format!(
+                    "{what}: the OBJ has no normals and {sharp} of its {shared} edges are sharper \
+                     than {SHARP_EDGE_DEG}°; they are smoothed over (set \
+                     {}.shape.crease_angle, e.g. {SHARP_EDGE_DEG}, to keep them sharp)",
+                    o.name
+                ));
+            }
             if matches!(o.material, Material::Dielectric(_)) && !o.report.closed {
                 warnings.push(format!(
                     "{what}: the dielectric mesh is not closed ({} boundary edges); rays that \
@@ -323,11 +333,24 @@ impl Scene {
     }
 }
 
+/// Edges sharper than this (degrees) in an OBJ without normals and without a crease angle…
+const SHARP_EDGE_DEG: f64 = 60.0;
+/// …in at least this share of its edges make a warning: a cube's creases are smoothed into a
+/// blob, which is rarely meant. Scanned meshes have a few per cent of such edges from noise.
+const SHARP_EDGE_SHARE: f64 = 0.1;
+
+/// An OBJ without normals whose many sharp edges were smoothed over.
+struct SmoothedCreases {
+    sharp: usize,
+    shared: usize,
+}
+
 fn build_object(
     index: usize,
     object: &desc::Object,
     assets: &Assets,
-) -> Result<Object, SceneError> {
+) -> Result<(Object, Option<SmoothedCreases>), SceneError> {
+    let mut smoothed = None;
     let name = format!("objects[{index}]");
     let field = |f: &str| format!("{name}.{f}");
     let positive = |f: &str, v: f64| {
@@ -351,15 +374,22 @@ fn build_object(
         }
     };
     let local = match &object.shape {
-        desc::Shape::Obj { path } => {
+        desc::Shape::Obj { path, crease_angle } => {
             let bytes = assets.get(path).ok_or_else(|| {
                 SceneError::new(
                     field("shape.path"),
                     format!("no file was supplied for {path:?}"),
                 )
             })?;
-            parse_obj(bytes)
-                .map_err(|e| SceneError::new(field("shape.path"), format!("{path}: {e}")))?
+            let obj = parse_obj_with(bytes, crease_angle.map(f64::to_radians))
+                .map_err(|e| SceneError::new(field("shape.path"), format!("{path}: {e}")))?;
+            if !obj.normals_given && crease_angle.is_none() {
+                let (sharp, shared) = obj.mesh.sharp_edges(SHARP_EDGE_DEG.to_radians());
+                if sharp as f64 >= SHARP_EDGE_SHARE * shared as f64 && sharp > 0 {
+                    smoothed = Some(SmoothedCreases { sharp, shared });
+                }
+            }
+            obj.mesh
         }
         &desc::Shape::Icosphere {
             radius,
@@ -440,14 +470,15 @@ fn build_object(
         .map(|t| mesh.corners(t))
         .collect();
     let bvh = Bvh::build(&triangles);
-    Ok(Object {
+    let object = Object {
         name,
         bounds: PruneBounds::build(&mesh, &bvh),
         bvh,
         report: mesh.report(),
         mesh,
         material,
-    })
+    };
+    Ok((object, smoothed))
 }
 
 #[cfg(test)]

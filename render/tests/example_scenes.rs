@@ -29,7 +29,7 @@ fn example_scenes_drop_nothing() {
         let mut desc = SceneDescription::from_json(&text).expect("example scene validates");
         let mut assets = Assets::new();
         for object in &desc.objects {
-            if let Shape::Obj { path: mesh } = &object.shape {
+            if let Shape::Obj { path: mesh, .. } = &object.shape {
                 let file = path.parent().expect("scene has a directory").join(mesh);
                 assets.insert(mesh.clone(), std::fs::read(&file).expect("mesh reads"));
             }

@@ -54,7 +54,7 @@ async fn obj_triangles(
 ) -> Result<HashMap<String, u64>, Error> {
     let mut counts = HashMap::new();
     for (i, object) in submit.scene.objects.iter().enumerate() {
-        if let Shape::Obj { path } = &object.shape {
+        if let Shape::Obj { path, .. } = &object.shape {
             let Some(hash) = submit.assets.get(path) else {
                 return Err(Error::BadRequest(format!(
                     "scene.objects[{i}].shape.path: no asset given for {path:?} (add it to `assets`)"

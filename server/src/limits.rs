@@ -106,7 +106,9 @@ impl Limits {
         for (i, object) in scene.objects.iter().enumerate() {
             let field = format!("scene.objects[{i}].shape");
             let count = match &object.shape {
-                Shape::Obj { path } => obj_triangles(path).map_err(|e| format!("{field}: {e}"))?,
+                Shape::Obj { path, .. } => {
+                    obj_triangles(path).map_err(|e| format!("{field}: {e}"))?
+                }
                 Shape::Icosphere { subdivisions, .. } | Shape::BumpySphere { subdivisions, .. } => {
                     icosphere_triangles(*subdivisions).unwrap_or(u64::MAX)
                 }

@@ -117,3 +117,48 @@ fn welded_seam_duplicates_share_one_normal() {
     assert_eq!(n[1], n[4]);
     assert!((n[1] - DVec3::Y).length() < 1e-12, "{}", n[1]);
 }
+
+#[test]
+fn a_crease_angle_keeps_a_cubes_edges_sharp() {
+    let (p, t) = cube();
+    let mesh = TriangleMesh::with_crease(p, t, 60f64.to_radians()).unwrap();
+    // Each of the 8 corners meets 3 faces at 90°: one vertex per face normal.
+    assert_eq!(mesh.positions().len(), 24);
+    assert!(
+        mesh.report().closed,
+        "splitting vertices keeps the mesh closed"
+    );
+    for i in 0..mesh.triangle_count() {
+        let face = mesh.geometric_normal(i).normalize();
+        // The faces are axis-aligned: the normal is ±x, ±y or ±z exactly.
+        assert_eq!(face.abs().max_element(), 1.0);
+        for n in mesh.corner_normals(i) {
+            assert!((n - face).length() < 1e-15, "triangle {i}: {n} vs {face}");
+        }
+    }
+    assert_eq!(mesh.sharp_edges(60f64.to_radians()), (12, 18));
+    // Flat (0°) splits the same way here; the diagonals join coplanar faces.
+    let (p, t) = cube();
+    assert_eq!(
+        TriangleMesh::with_crease(p, t, 0.0)
+            .unwrap()
+            .positions()
+            .len(),
+        24
+    );
+}
+
+#[test]
+fn a_crease_of_180_degrees_or_above_a_meshs_edges_is_the_smooth_rule_exactly() {
+    let (p, t) = cube();
+    let smooth = TriangleMesh::new(p.clone(), None, t.clone()).unwrap();
+    let creased = TriangleMesh::with_crease(p, t, std::f64::consts::PI).unwrap();
+    assert_eq!(creased, smooth);
+    // A fine sphere has no edge near 60°: nothing splits, and the normals are the same bits.
+    let sphere = crate::procedural::icosphere(1.0, 3);
+    let (p, t) = (sphere.positions().to_vec(), sphere.triangles().to_vec());
+    let smooth = TriangleMesh::new(p.clone(), None, t.clone()).unwrap();
+    let creased = TriangleMesh::with_crease(p, t, 60f64.to_radians()).unwrap();
+    assert_eq!(creased, smooth);
+    assert_eq!(smooth.sharp_edges(60f64.to_radians()).0, 0);
+}

@@ -184,3 +184,55 @@ fn open_dielectric_mesh_is_a_warning_and_triangles_are_located() {
     assert_eq!(scene.locate(80), (1, 0));
     assert_eq!(scene.summary().triangles, 81);
 }
+
+/// A unit cube as an OBJ file without normals.
+const CUBE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 0 0 1\nv 1 0 1\nv 0 1 1\nv 1 1 1\n\
+    f 1 3 2\nf 2 3 4\nf 5 6 7\nf 6 8 7\nf 1 2 5\nf 2 6 5\nf 3 7 4\nf 4 7 8\nf 1 5 3\nf 3 5 7\n\
+    f 2 4 6\nf 4 8 6\n";
+
+#[test]
+fn an_obj_without_normals_is_creased_on_request_and_warns_when_smoothed_over() {
+    let assets = Assets::from([("cube.obj".to_string(), CUBE_OBJ.as_bytes().to_vec())]);
+    let cube = |extra: &str| {
+        format!(r#"{{ "shape": {{ "type": "obj", "path": "cube.obj"{extra} }}, {GLASS} }}"#)
+    };
+    let light = r#"{ "type": "point", "position": [0, 5, 0], "intensity": [1, 1, 1] }"#;
+    let smooth = Scene::build(&scene_json(&cube(""), light), &assets).unwrap();
+    let warning = smooth
+        .warnings()
+        .iter()
+        .find(|w| w.contains("crease_angle"))
+        .expect("a warning about the smoothed edges");
+    assert!(
+        warning.starts_with("objects[0] (cube.obj): the OBJ has no normals and 12 of its 18 edges"),
+        "{warning}"
+    );
+    // The smooth normal at a corner is the cube's diagonal; creased, the faces are flat.
+    assert_eq!(smooth.objects()[0].mesh.positions().len(), 8);
+    let creased = Scene::build(
+        &scene_json(&cube(r#", "crease_angle": 60"#), light),
+        &assets,
+    )
+    .unwrap();
+    assert!(
+        creased
+            .warnings()
+            .iter()
+            .all(|w| !w.contains("crease_angle"))
+    );
+    let mesh = &creased.objects()[0].mesh;
+    assert_eq!(mesh.positions().len(), 24);
+    for i in 0..mesh.triangle_count() {
+        let face = mesh.geometric_normal(i).normalize();
+        assert!(
+            mesh.corner_normals(i)
+                .iter()
+                .all(|n| (*n - face).length() < 1e-15)
+        );
+    }
+    let e = error(&cube(r#", "crease_angle": 200"#), light, &assets);
+    assert_eq!(
+        e,
+        "objects[0].shape.crease_angle: must be an angle in degrees from 0 to 180, got 200"
+    );
+}
