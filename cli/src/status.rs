@@ -72,7 +72,7 @@ pub fn state_label(j: &JobInfo) -> String {
 /// A few lines about one job.
 fn describe(j: &JobInfo) -> String {
     let mut s = format!(
-        "job {} ({}): {}\n  image     {}x{} in tiles of {} px, priority {}\n  tiles     {}/{} done\n  elapsed   {:.1} s\n",
+        "job {} ({}): {}\n  image     {}x{} in tiles of {} px, priority {}\n  tiles     {}/{} done\n  elapsed   {}\n",
         j.id,
         j.name,
         state_label(j),
@@ -82,7 +82,12 @@ fn describe(j: &JobInfo) -> String {
         j.priority,
         j.tiles_done,
         j.tiles_total,
-        j.elapsed_s
+        // A job that never started (cancelled while queued) has no elapsed time.
+        if j.elapsed_s > 0.0 {
+            format!("{:.1} s", j.elapsed_s)
+        } else {
+            "-".to_string()
+        }
     );
     if let Some(eta) = j.eta_s.filter(|_| !j.state.is_finished()) {
         s.push_str(&format!("  eta       {eta:.1} s\n"));
@@ -162,6 +167,8 @@ mod tests {
         assert!(text.starts_with("job 3 (box): queued\n"), "{text}");
         let text = describe(&job(JobState::Done, 0));
         assert!(text.starts_with("job 3 (box): done\n"), "{text}");
+        let text = describe(&job(JobState::Cancelled, 0));
+        assert!(text.contains("  elapsed   -\n"), "{text}");
         let mut picky = job(JobState::Queued, 2);
         picky.requires.insert("pool".into(), "night".into());
         picky.workers_eligible = 0;

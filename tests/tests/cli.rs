@@ -276,8 +276,8 @@ async fn submit_wait_status_fetch_and_cancel_against_a_coordinator() {
         .await;
         assert!(out.status.success(), "{}", text(&out));
         let (mut desc, assets) = test_scene(24, 16, 1);
-        desc.film.spp = 2;
-        desc.film.seed = 5;
+        desc["film"]["spp"] = 2.into();
+        desc["film"]["seed"] = 5.into();
         assert_bit_identical(
             &read_exr(&edited_exr).unwrap(),
             &reference_image(&desc, &assets).unwrap(),
