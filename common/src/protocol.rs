@@ -10,7 +10,10 @@
 //!
 //! Client routes need `Authorization: Bearer $SPINDLE_TOKEN`, worker routes
 //! `Authorization: Bearer $SPINDLE_WORKER_TOKEN` (a coordinator on loopback may run without
-//! tokens; it refuses a non-loopback address without both).
+//! tokens; it refuses a non-loopback address without both). Every worker route but
+//! registration also needs the worker's own secret, [`WORKER_SECRET_HEADER`], from
+//! [`WorkerRegistered`]: it binds the worker id (in the path or the body) and so the
+//! worker's leases (403 otherwise).
 //!
 //! | method | path | who | body → response |
 //! |---|---|---|---|
@@ -519,12 +522,21 @@ impl EventKind {
 /// How long a lost worker stays in [`WorkerList`], in seconds.
 pub const LOST_WORKERS_LISTED_S: u64 = 3600;
 
-/// The id a worker uses in every later request.
+/// The id a worker uses in every later request, and the secret that proves it is that worker.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct WorkerRegistered {
     pub worker_id: u64,
+    /// Sent back as the [`WORKER_SECRET_HEADER`] of every later request of this worker;
+    /// `<worker id>.<64 hex digits>` (256 random bits). Shown once: the coordinator keeps only
+    /// its SHA-256.
+    #[schema(pattern = "^[0-9]{1,20}\\.[0-9a-f]{64}$")]
+    pub worker_secret: String,
 }
+
+/// The header carrying a worker's secret ([`WorkerRegistered::worker_secret`]) on every worker
+/// route but registration; missing or wrong, the answer is 403.
+pub const WORKER_SECRET_HEADER: &str = "spindle-worker-secret";
 
 /// Options of a lease request; an empty body means the defaults.
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize, ToSchema)]

@@ -1,16 +1,21 @@
-//! Bearer tokens: one for clients (`SPINDLE_TOKEN`), one for workers (`SPINDLE_WORKER_TOKEN`).
+//! Bearer tokens: one for clients (`SPINDLE_TOKEN`), one for workers (`SPINDLE_WORKER_TOKEN`);
+//! and, on the routes of a registered worker, that worker's own secret.
 //!
 //! Each route belongs to one [`Role`]; a middleware checks the `Authorization: Bearer …`
 //! header against that role's token before the handler runs. A role without a configured token
-//! is open — [`crate::config::Config::check_listen_address`] allows that only on loopback.
+//! is open — [`crate::config::Config::check_listen_address`] allows that only on loopback. The
+//! worker secret ([`crate::worker_secret`]) is required whether or not tokens are configured.
 
 use axum::extract::{Request, State};
 use axum::http::header::AUTHORIZATION;
 use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 
+use spindle_common::protocol::WORKER_SECRET_HEADER;
+
 use crate::AppState;
 use crate::error::Error;
+use crate::worker_secret::WorkerIdentity;
 
 /// Who may call a route.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -19,7 +24,10 @@ pub enum Role {
     Public,
     /// Users submitting and fetching jobs.
     Client,
-    /// Worker processes.
+    /// A worker process not registered yet: the registration route only (worker token).
+    NewWorker,
+    /// A registered worker: the worker token and its worker secret, which the middleware turns
+    /// into the request's [`WorkerIdentity`].
     Worker,
 }
 
@@ -32,7 +40,7 @@ pub async fn require(
     let expected = match role {
         Role::Public => None,
         Role::Client => state.config().client_token.as_deref(),
-        Role::Worker => state.config().worker_token.as_deref(),
+        Role::Worker | Role::NewWorker => state.config().worker_token.as_deref(),
     };
     if let Some(expected) = expected {
         let given = request
@@ -49,6 +57,20 @@ pub async fn require(
                 return Error::Unauthorized("wrong token for this route").into_response();
             }
             Some(_) => {}
+        }
+    }
+    let mut request = request;
+    if role == Role::Worker {
+        let presented = request
+            .headers()
+            .get(WORKER_SECRET_HEADER)
+            .map(|v| v.to_str().unwrap_or(""));
+        let identity = state.ledger().authenticate(presented);
+        match identity {
+            Ok(identity) => {
+                request.extensions_mut().insert::<WorkerIdentity>(identity);
+            }
+            Err(e) => return e.into_response(),
         }
     }
     next.run(request).await

@@ -75,6 +75,10 @@ pub struct Args {
     /// Leases one worker may hold at once; a lease request past it gets 429 with Retry-After.
     #[arg(long, env = "SPINDLE_MAX_LEASES_PER_WORKER", default_value_t = DEFAULT_MAX_LEASES_PER_WORKER)]
     pub max_leases_per_worker: usize,
+    /// Workers registered at once; past it a registration forgets the lost worker heard from
+    /// longest ago, or, with none lost, gets 429 with Retry-After.
+    #[arg(long, env = "SPINDLE_MAX_WORKERS", default_value_t = DEFAULT_MAX_WORKERS)]
+    pub max_workers: usize,
     /// PEM certificate chain (the server's own first): serve HTTPS. Needs --tls-key. SIGHUP
     /// re-reads both files.
     #[arg(long, env = "SPINDLE_TLS_CERT")]
@@ -113,6 +117,9 @@ pub const MIN_TOKEN_BYTES: usize = 16;
 pub const DEFAULT_CLIENT_RATE_PER_S: u32 = 50;
 /// Default of `--max-leases-per-worker` (a worker renders one tile at a time).
 pub const DEFAULT_MAX_LEASES_PER_WORKER: usize = 4;
+
+/// Default of `--max-workers`.
+pub const DEFAULT_MAX_WORKERS: usize = 1024;
 
 /// Default of `--max-connections`.
 pub const DEFAULT_MAX_CONNECTIONS: usize = 1024;
@@ -167,6 +174,8 @@ pub struct Config {
     pub client_rate_per_s: std::num::NonZeroU32,
     /// Leases one worker may hold at once.
     pub max_leases_per_worker: usize,
+    /// Workers registered at once.
+    pub max_workers: usize,
     /// Serve HTTPS with these files; `None` serves plain HTTP.
     pub tls: Option<TlsFiles>,
     /// Plain HTTP on a non-loopback address was asked for (a TLS-terminating proxy in front).
@@ -214,6 +223,7 @@ impl Config {
             client_rate_per_s: std::num::NonZeroU32::new(DEFAULT_CLIENT_RATE_PER_S)
                 .expect("a positive default"),
             max_leases_per_worker: DEFAULT_MAX_LEASES_PER_WORKER,
+            max_workers: DEFAULT_MAX_WORKERS,
             tls: None,
             allow_plain_http: false,
             retention: Retention::default(),
@@ -316,6 +326,9 @@ impl Args {
         if self.max_leases_per_worker == 0 {
             bail!("--max-leases-per-worker: must be at least 1");
         }
+        if self.max_workers == 0 {
+            bail!("--max-workers: must be at least 1");
+        }
         if self.sweep_interval < Duration::from_millis(10) {
             bail!("--sweep-interval: must be at least 10ms");
         }
@@ -340,6 +353,7 @@ impl Args {
             max_connections: self.max_connections,
             client_rate_per_s,
             max_leases_per_worker: self.max_leases_per_worker,
+            max_workers: self.max_workers,
             tls: crate::tls::files(self.tls_cert, self.tls_key)?,
             allow_plain_http: self.allow_plain_http,
             retention,

@@ -80,6 +80,9 @@ const MIGRATIONS: &[&str] = &[
 "#,
     // The SHA-256 of a done job's EXR (hex), recorded when it was written; NULL before.
     "ALTER TABLE jobs ADD COLUMN image_sha256 TEXT;",
+    // The SHA-256 of each worker's secret (32 bytes); NULL for workers registered before
+    // secrets, which must register again.
+    "ALTER TABLE workers ADD COLUMN secret_sha256 BLOB;",
 ];
 
 /// Opens (creating if needed) the database at `path` and brings its schema up to date.
@@ -357,6 +360,8 @@ pub struct WorkerRow {
     pub registered_ms: i64,
     pub tiles_done: u64,
     pub failures: u64,
+    /// The SHA-256 of its secret; `None` if it registered before secrets existed.
+    pub secret_sha256: Option<[u8; 32]>,
 }
 
 /// Every registered worker.
@@ -364,7 +369,8 @@ pub fn load_workers(conn: &Connection) -> rusqlite::Result<Vec<WorkerRow>> {
     let mut stmt = conn.prepare(
         "SELECT w.id, w.name, w.threads, w.version, w.labels, w.draining, w.registered_ms,
                 (SELECT COUNT(*) FROM tiles t WHERE t.worker_id = w.id AND t.state = 'done'),
-                (SELECT COUNT(*) FROM tile_failures f WHERE f.worker_id = w.id)
+                (SELECT COUNT(*) FROM tile_failures f WHERE f.worker_id = w.id),
+                w.secret_sha256
          FROM workers w",
     )?;
     let rows = stmt.query_map([], |r| {
@@ -378,6 +384,7 @@ pub fn load_workers(conn: &Connection) -> rusqlite::Result<Vec<WorkerRow>> {
             registered_ms: r.get(6)?,
             tiles_done: r.get::<_, i64>(7)? as u64,
             failures: r.get::<_, i64>(8)? as u64,
+            secret_sha256: r.get(9)?,
         })
     })?;
     rows.collect()
@@ -398,6 +405,19 @@ pub fn insert_worker(
         params![name, threads, now_ms, version, labels_json],
     )?;
     Ok(conn.last_insert_rowid() as u64)
+}
+
+/// Stores the SHA-256 of a worker's secret.
+pub fn set_worker_secret(
+    conn: &Connection,
+    worker: u64,
+    sha256: &[u8; 32],
+) -> rusqlite::Result<()> {
+    conn.execute(
+        "UPDATE workers SET secret_sha256 = ?2 WHERE id = ?1",
+        params![worker as i64, &sha256[..]],
+    )?;
+    Ok(())
 }
 
 /// Marks a worker as draining.

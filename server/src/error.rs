@@ -18,6 +18,9 @@ pub enum Error {
     /// Missing or wrong bearer token (401).
     #[error("{0}")]
     Unauthorized(&'static str),
+    /// A worker secret that is missing, malformed or not the worker's (403).
+    #[error("{0}")]
+    Forbidden(String),
     /// No such job, tile, worker or asset (404).
     #[error("{0}")]
     NotFound(String),
@@ -61,6 +64,7 @@ impl Error {
         match self {
             Error::BadRequest(_) => StatusCode::BAD_REQUEST,
             Error::Unauthorized(_) => StatusCode::UNAUTHORIZED,
+            Error::Forbidden(_) => StatusCode::FORBIDDEN,
             Error::NotFound(_) => StatusCode::NOT_FOUND,
             Error::Conflict(_) => StatusCode::CONFLICT,
             Error::Gone(_) => StatusCode::GONE,

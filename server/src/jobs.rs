@@ -71,6 +71,9 @@ pub struct Worker {
     pub polls: u32,
     /// Its loss was announced (reset when it is heard from again).
     pub announced_lost: bool,
+    /// The SHA-256 of its secret (see [`crate::worker_secret`]); `None` for a worker
+    /// registered before secrets existed, which must register again.
+    pub secret_sha256: Option<[u8; 32]>,
 }
 
 /// Bound on [`Worker::recent_tiles`]: beyond it the throughput saturates rather than memory
@@ -474,6 +477,7 @@ impl Ledger {
                 seen_until: now + grace,
                 polls: 0,
                 announced_lost: false,
+                secret_sha256: row.secret_sha256,
             };
             workers.insert(row.id, worker);
         }
@@ -924,17 +928,37 @@ impl Ledger {
         Ok(())
     }
 
-    /// Registers a worker (its labels already checked).
+    /// Registers a worker (its labels already checked) and returns its id and secret. At
+    /// `max_workers` registered workers, the lost worker heard from longest ago is forgotten to
+    /// make room; with none lost, 429 until one is (a lease TTL at most).
     pub fn register_worker(
         &mut self,
         name: &str,
         threads: u32,
         version: &str,
         labels: BTreeMap<String, String>,
-    ) -> Result<u64, Error> {
+        max_workers: usize,
+    ) -> Result<(u64, String), Error> {
+        if self.workers.len() >= max_workers {
+            self.forget_longest_lost(Instant::now())?;
+        }
+        if self.workers.len() >= max_workers {
+            return Err(Error::RateLimited {
+                message: format!(
+                    "{} workers are registered and connected, the most this coordinator takes \
+                     (--max-workers); try again when one is lost",
+                    self.workers.len()
+                ),
+                retry_after: self.lease_ttl.max(Duration::from_secs(1)),
+            });
+        }
         let now = now_ms();
         let labels_json = serde_json::to_string(&labels).map_err(anyhow::Error::from)?;
-        let id = db::insert_worker(&self.db, name, threads, version, &labels_json, now)?;
+        let tx = self.db.transaction()?;
+        let id = db::insert_worker(&tx, name, threads, version, &labels_json, now)?;
+        let issued = crate::worker_secret::issue(id)?;
+        db::set_worker_secret(&tx, id, &issued.sha256)?;
+        tx.commit()?;
         tracing::info!(
             worker = id,
             name,
@@ -956,13 +980,34 @@ impl Ledger {
             seen_until: Instant::now() + self.lease_ttl,
             polls: 0,
             announced_lost: false,
+            secret_sha256: Some(issued.sha256),
         };
         self.workers.insert(id, worker);
         self.events.publish(EventKind::WorkerJoined {
             worker_id: id,
             worker: name.to_string(),
         });
-        Ok(id)
+        Ok((id, issued.secret))
+    }
+
+    /// Forgets the lost worker (not connected) heard from longest ago, if any.
+    fn forget_longest_lost(&mut self, now: Instant) -> Result<(), Error> {
+        let Some(id) = self
+            .workers
+            .iter()
+            .filter(|(_, w)| !w.is_live(now))
+            .min_by_key(|(id, w)| (w.last_seen_ms, **id))
+            .map(|(&id, _)| id)
+        else {
+            return Ok(());
+        };
+        db::delete_worker(&self.db, id)?;
+        self.workers.remove(&id);
+        tracing::info!(
+            worker = id,
+            "lost worker forgotten to make room for a registration"
+        );
+        Ok(())
     }
 
     /// The finished tiles of a job as `(index, hash)`, in index order (none once the job is

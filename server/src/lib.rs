@@ -28,6 +28,7 @@ pub mod serve;
 pub mod throttle;
 pub mod tile_store;
 pub mod tls;
+pub mod worker_secret;
 
 use std::future::Future;
 use std::sync::{Arc, Mutex, MutexGuard};

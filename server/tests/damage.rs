@@ -156,11 +156,7 @@ async fn an_upload_racing_a_delete_or_cancel_is_answered_404_or_409() {
         let lease = c.lease(w).await.unwrap();
         let upload = upload_for(&lease, w);
         let uploading = tokio::spawn({
-            let c = Coordinator {
-                app: c.app.clone(),
-                state: c.state.clone(),
-                config: c.config.clone(),
-            };
+            let c = c.share();
             async move { c.upload(job.id, 0, &upload).await }
         });
         tokio::time::sleep(span * (round / 2) / (rounds / 2)).await;

@@ -67,11 +67,7 @@ async fn the_stream_tells_job_states_tiles_and_workers_and_resumes_after_an_id()
     let dir = tempfile::tempdir().unwrap();
     let c = Coordinator::open(config(dir.path())).await;
     let follow = {
-        let c = Coordinator {
-            app: c.app.clone(),
-            state: c.state.clone(),
-            config: c.config.clone(),
-        };
+        let c = c.share();
         tokio::spawn(async move { read_events(&c, None, 5).await })
     };
     tokio::time::sleep(Duration::from_millis(100)).await; // subscribed

@@ -274,13 +274,17 @@ async fn a_worker_failing_three_tiles_of_a_job_is_kept_off_it() {
 async fn an_unknown_worker_is_told_to_register() {
     let dir = tempfile::tempdir().unwrap();
     let c = Coordinator::open(config(dir.path())).await;
+    // A secret naming a worker the coordinator does not know (it forgot it, say).
     let (status, err) = c
-        .worker(
+        .send_as(
             Method::POST,
             "/v1/workers/99/lease",
-            Some(json!({"wait_ms": 0})),
+            Some(WORKER),
+            Some(&format!("99.{}", "0".repeat(64))),
+            r#"{"wait_ms": 0}"#,
         )
         .await;
+    let err: serde_json::Value = serde_json::from_slice(&err).unwrap();
     assert_eq!(status, StatusCode::NOT_FOUND);
     assert!(
         err["error"].as_str().unwrap().contains("not registered"),

@@ -231,10 +231,12 @@ async fn a_long_poll_is_answered_when_a_job_arrives() {
     let w = c.register("w").await;
     let poll = {
         let app = c.app.clone();
+        let secret = c.secret(w);
         tokio::spawn(async move {
             use tower::ServiceExt;
             let request = axum::http::Request::post(format!("/v1/workers/{w}/lease"))
                 .header("authorization", format!("Bearer {WORKER}"))
+                .header("spindle-worker-secret", secret)
                 .body(axum::body::Body::from(r#"{"wait_ms": 20000}"#))
                 .unwrap();
             app.oneshot(request).await.unwrap().status()

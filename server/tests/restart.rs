@@ -53,7 +53,8 @@ async fn a_restarted_coordinator_resumes_without_losing_or_doubling_tiles() {
             assert_eq!(status, StatusCode::OK);
         }
         (job, w, leases[2].clone())
-        // The coordinator is dropped here with one tile leased and two done.
+        // The coordinator is dropped here with one tile leased and two done; the worker keeps
+        // its secret.
     };
 
     let mut cfg = config(dir.path());

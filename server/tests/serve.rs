@@ -38,9 +38,16 @@ async fn run_serves_until_shutdown_and_ends_long_polls() {
     )
     .await;
     assert!(register.contains("\"worker_id\":1"), "{register}");
+    let secret = register
+        .split("\"worker_secret\":\"")
+        .nth(1)
+        .and_then(|rest| rest.split('"').next())
+        .expect("a worker secret");
 
     // A long poll with nothing to do, then a shutdown: the poll ends with 204 at once.
-    let poll = tokio::spawn(http(addr, "POST /v1/workers/1/lease HTTP/1.0\r\n\r\n"));
+    let request =
+        format!("POST /v1/workers/1/lease HTTP/1.0\r\nspindle-worker-secret: {secret}\r\n\r\n");
+    let poll = tokio::spawn(async move { http(addr, &request).await });
     tokio::time::sleep(Duration::from_millis(200)).await;
     stop.send(()).unwrap();
     let answered = tokio::time::timeout(Duration::from_secs(10), poll)

@@ -28,6 +28,13 @@ async fn send_from(
         .header("authorization", format!("Bearer {token}"))
         .body(Body::from(body.to_string()))
         .unwrap();
+    if token == WORKER {
+        let last = c.secrets.lock().unwrap().1.expect("a worker registered");
+        let secret = c.secret(last).parse().unwrap();
+        request
+            .headers_mut()
+            .insert("spindle-worker-secret", secret);
+    }
     if let Some(peer) = peer {
         request.extensions_mut().insert(ConnectInfo(peer));
     }

@@ -3,10 +3,11 @@
 
 use std::time::Duration;
 
-use reqwest::{Method, StatusCode};
+use reqwest::{Method, RequestBuilder, StatusCode};
 use serde_json::{Value, json};
 use spindle_common::protocol::{
-    JobInfo, JobList, Lease, TileAck, TileOutcome, TileUpload, WorkerRegistered, pixel_hash,
+    JobInfo, JobList, Lease, TileAck, TileOutcome, TileUpload, WORKER_SECRET_HEADER,
+    WorkerRegistered, pixel_hash,
 };
 use spindle_common::tile::TilePixels;
 use spindle_tests::{Farm, test_scene};
@@ -174,7 +175,7 @@ async fn bad_requests_get_the_right_4xx_and_leave_jobs_alone() {
     .expect("the test finished in time");
 }
 
-async fn register(farm: &Farm, name: &str) -> u64 {
+async fn register(farm: &Farm, name: &str) -> WorkerRegistered {
     let resp = farm
         .worker(Method::POST, "/v1/workers")
         .json(&json!({ "name": name, "threads": 1 }))
@@ -182,16 +183,26 @@ async fn register(farm: &Farm, name: &str) -> u64 {
         .await
         .unwrap();
     assert!(resp.status().is_success(), "register: {}", resp.status());
-    resp.json::<WorkerRegistered>().await.unwrap().worker_id
+    resp.json::<WorkerRegistered>().await.unwrap()
 }
 
-async fn lease(farm: &Farm, worker: u64) -> Option<Lease> {
-    let resp = farm
-        .worker(Method::POST, &format!("/v1/workers/{worker}/lease"))
-        .json(&json!({ "wait_ms": 200 }))
-        .send()
-        .await
-        .unwrap();
+/// A request of the registered worker `w`: the worker token and its secret.
+fn as_worker(farm: &Farm, w: &WorkerRegistered, method: Method, path: &str) -> RequestBuilder {
+    farm.worker(method, path)
+        .header(WORKER_SECRET_HEADER, &w.worker_secret)
+}
+
+async fn lease(farm: &Farm, worker: &WorkerRegistered) -> Option<Lease> {
+    let resp = as_worker(
+        farm,
+        worker,
+        Method::POST,
+        &format!("/v1/workers/{}/lease", worker.worker_id),
+    )
+    .json(&json!({ "wait_ms": 200 }))
+    .send()
+    .await
+    .unwrap();
     match resp.status() {
         StatusCode::NO_CONTENT => None,
         StatusCode::OK => Some(resp.json().await.unwrap()),
@@ -201,18 +212,20 @@ async fn lease(farm: &Farm, worker: u64) -> Option<Lease> {
 
 async fn upload(
     farm: &Farm,
-    worker: u64,
+    worker: &WorkerRegistered,
     lease: &Lease,
     pixels: &TilePixels,
 ) -> (StatusCode, String) {
     let body = TileUpload {
-        worker_id: worker,
+        worker_id: worker.worker_id,
         epoch: lease.epoch,
         hash: pixel_hash(pixels),
         pixels: pixels.clone(),
     };
     send(
-        farm.worker(
+        as_worker(
+            farm,
+            worker,
             Method::PUT,
             &format!("/v1/jobs/{}/tiles/{}", lease.job_id, lease.tile_index),
         )
@@ -230,7 +243,7 @@ async fn a_stale_lease_epoch_is_refused_and_a_late_identical_result_accepted() {
         let job = farm.submit(&scene, &assets, 4).await.unwrap();
 
         let slow = register(&farm, "slow").await;
-        let first = lease(&farm, slow)
+        let first = lease(&farm, &slow)
             .await
             .expect("a tile for the first worker");
         assert_eq!(first.job_id, job.id);
@@ -243,7 +256,7 @@ async fn a_stale_lease_epoch_is_refused_and_a_late_identical_result_accepted() {
                 std::time::Instant::now() < deadline,
                 "the tile was never leased again"
             );
-            match lease(&farm, fast).await {
+            match lease(&farm, &fast).await {
                 Some(l) if l.tile_index == first.tile_index => break l,
                 _ => tokio::time::sleep(Duration::from_millis(100)).await,
             }
@@ -255,58 +268,63 @@ async fn a_stale_lease_epoch_is_refused_and_a_late_identical_result_accepted() {
         different.total[0] = 1.0;
 
         // The stale epoch cannot write, whatever it sends, while the newer lease is out.
-        let (status, msg) = upload(&farm, slow, &first, &different).await;
+        let (status, msg) = upload(&farm, &slow, &first, &different).await;
         assert_eq!(status, StatusCode::CONFLICT, "stale upload: {msg}");
         let info: JobInfo = farm.job(job.id).await.unwrap();
         assert_eq!(info.tiles_done, 0, "a stale upload completed a tile");
 
         // A heartbeat on the stale lease is refused too.
         let (status, _) = send(
-            farm.worker(
+            as_worker(
+                &farm,
+                &slow,
                 Method::POST,
                 &format!("/v1/leases/{}/{}/heartbeat", job.id, first.tile_index),
             )
-            .json(&json!({ "worker_id": slow, "epoch": first.epoch })),
+            .json(&json!({ "worker_id": slow.worker_id, "epoch": first.epoch })),
         )
         .await;
         assert_eq!(status, StatusCode::CONFLICT, "stale heartbeat");
 
         // The current lease writes; afterwards the stale worker's identical result is a
         // harmless duplicate and a different one is refused.
-        let (status, msg) = upload(&farm, fast, &second, &right).await;
+        let (status, msg) = upload(&farm, &fast, &second, &right).await;
         assert_eq!(status, StatusCode::OK, "current upload: {msg}");
-        let resp = farm
-            .worker(
-                Method::PUT,
-                &format!("/v1/jobs/{}/tiles/{}", job.id, first.tile_index),
-            )
-            .json(&TileUpload {
-                worker_id: slow,
-                epoch: first.epoch,
-                hash: pixel_hash(&right),
-                pixels: right.clone(),
-            })
-            .send()
-            .await
-            .unwrap();
+        let resp = as_worker(
+            &farm,
+            &slow,
+            Method::PUT,
+            &format!("/v1/jobs/{}/tiles/{}", job.id, first.tile_index),
+        )
+        .json(&TileUpload {
+            worker_id: slow.worker_id,
+            epoch: first.epoch,
+            hash: pixel_hash(&right),
+            pixels: right.clone(),
+        })
+        .send()
+        .await
+        .unwrap();
         assert_eq!(resp.status(), StatusCode::OK, "late identical upload");
         assert_eq!(
             resp.json::<TileAck>().await.unwrap().outcome,
             TileOutcome::Duplicate
         );
-        let (status, msg) = upload(&farm, slow, &first, &different).await;
+        let (status, msg) = upload(&farm, &slow, &first, &different).await;
         assert_eq!(status, StatusCode::CONFLICT, "late different upload: {msg}");
 
         // A hash that does not match the pixels is refused outright.
         let mut lying = TileUpload {
-            worker_id: fast,
+            worker_id: fast.worker_id,
             epoch: second.epoch,
             hash: pixel_hash(&right),
             pixels: different.clone(),
         };
         lying.hash = pixel_hash(&right);
         let (status, msg) = send(
-            farm.worker(
+            as_worker(
+                &farm,
+                &fast,
                 Method::PUT,
                 &format!("/v1/jobs/{}/tiles/{}", job.id, first.tile_index),
             )

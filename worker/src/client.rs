@@ -1,19 +1,22 @@
 //! The worker's side of the coordinator's HTTP API: one method per worker route, typed with
 //! `spindle_common::protocol`, nothing else.
 //!
-//! It knows the coordinator's address and the worker token, talks HTTP or HTTPS (trusting the
+//! It knows the coordinator's address and the worker token, and keeps (in memory only) the
+//! worker secret of its latest registration, sent with every later request as
+//! [`WORKER_SECRET_HEADER`]. It talks HTTP or HTTPS (trusting the
 //! roots of [`crate::tls`]) without any system proxy (farm traffic is machine-to-machine), and bounds every request with a
 //! timeout so a coordinator that vanishes mid-request cannot stall the worker. It does not
 //! retry: deciding what to do about a failure (wait and retry, re-register, drop the tile) is
 //! the caller's business, helped by [`ClientError::kind`].
 
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use reqwest::StatusCode;
 use serde::de::DeserializeOwned;
 use spindle_common::protocol::{
     ApiError, Heartbeat, HeartbeatAck, JobSpec, Lease, LeaseRequest, RegisterWorker, TileAck,
-    TileFailure, TileUpload, WorkerRegistered,
+    TileFailure, TileUpload, WORKER_SECRET_HEADER, WorkerRegistered,
 };
 
 /// How long to wait for a TCP connection to the coordinator.
@@ -44,9 +47,11 @@ pub enum ClientError {
 pub enum ErrorKind {
     /// May pass: wait (backoff) and try again.
     Transient,
-    /// 401/403: the worker token is wrong; retrying cannot help.
+    /// 401: the worker token is wrong; retrying cannot help.
     Unauthorized,
-    /// 404: the thing (worker, job, lease, asset) is unknown to the coordinator.
+    /// 404: the thing (worker, job, lease, asset) is unknown to the coordinator; or 403: the
+    /// coordinator does not take this worker's secret (it forgot the worker). Either way the
+    /// worker registers again.
     NotFound,
     /// 409: the lease is no longer this worker's (a newer epoch exists, or the tile is done
     /// with a different result).
@@ -63,8 +68,8 @@ impl ClientError {
         match self {
             ClientError::Unreachable(_) | ClientError::Garbled(_) => ErrorKind::Transient,
             ClientError::Status { status, .. } => match *status {
-                StatusCode::UNAUTHORIZED | StatusCode::FORBIDDEN => ErrorKind::Unauthorized,
-                StatusCode::NOT_FOUND => ErrorKind::NotFound,
+                StatusCode::UNAUTHORIZED => ErrorKind::Unauthorized,
+                StatusCode::NOT_FOUND | StatusCode::FORBIDDEN => ErrorKind::NotFound,
                 StatusCode::CONFLICT => ErrorKind::Conflict,
                 StatusCode::GONE => ErrorKind::Draining,
                 StatusCode::REQUEST_TIMEOUT | StatusCode::TOO_MANY_REQUESTS => ErrorKind::Transient,
@@ -109,6 +114,8 @@ pub struct Client {
     /// `http://host:port` with no trailing slash.
     base: String,
     token: Option<String>,
+    /// The secret of the latest registration, shared by the clones.
+    secret: Arc<Mutex<Option<String>>>,
 }
 
 impl Client {
@@ -135,13 +142,16 @@ impl Client {
             http,
             base: base.trim_end_matches('/').to_string(),
             token,
+            secret: Arc::default(),
         })
     }
 
-    /// `POST /v1/workers`.
+    /// `POST /v1/workers`; the secret of the answer goes with every later request.
     pub async fn register(&self, body: &RegisterWorker) -> Result<WorkerRegistered, ClientError> {
         let req = self.http.post(self.url("/v1/workers")).json(body);
-        decode(self.send(req).await?).await
+        let registered: WorkerRegistered = decode(self.send(req).await?).await?;
+        *self.secret.lock().expect("not poisoned") = Some(registered.worker_secret.clone());
+        Ok(registered)
     }
 
     /// `POST /v1/workers/{id}/lease`: waits up to `wait` for a tile; `None` when there was none.
@@ -233,6 +243,11 @@ impl Client {
             Some(token) => req.bearer_auth(token),
             None => req,
         };
+        let secret = self.secret.lock().expect("not poisoned").clone();
+        let req = match secret {
+            Some(secret) => req.header(WORKER_SECRET_HEADER, secret),
+            None => req,
+        };
         let resp = req.send().await?;
         let status = resp.status();
         if status.is_success() {
@@ -281,7 +296,7 @@ mod tests {
             (408, ErrorKind::Transient),
             (429, ErrorKind::Transient),
             (401, ErrorKind::Unauthorized),
-            (403, ErrorKind::Unauthorized),
+            (403, ErrorKind::NotFound),
             (404, ErrorKind::NotFound),
             (409, ErrorKind::Conflict),
             (400, ErrorKind::Rejected),

@@ -47,7 +47,10 @@ type Declared = Vec<(Role, UtoipaMethodRouter<AppState>)>;
         title = "spindle coordinator",
         description = "Jobs, assets, leases and tiles of a spindle render farm. Client routes \
                        take `Authorization: Bearer $SPINDLE_TOKEN`, worker routes \
-                       `Authorization: Bearer $SPINDLE_WORKER_TOKEN`. Every error body is \
+                       `Authorization: Bearer $SPINDLE_WORKER_TOKEN`; every worker route but \
+                       registration also the worker's own secret from POST /v1/workers in \
+                       `Spindle-Worker-Secret` (403 when missing or not the worker's). Every \
+                       error body is \
                        `{\"error\": \"...\"}`. Any route answers 408 (and closes the \
                        connection) when its request outlasts the request deadline (300 s by \
                        default) or its body pauses past the header deadline (10 s); headers \
@@ -63,32 +66,65 @@ struct BearerTokens;
 
 impl utoipa::Modify for BearerTokens {
     fn modify(&self, openapi: &mut utoipa::openapi::OpenApi) {
-        use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityScheme};
+        use utoipa::openapi::security::{
+            ApiKey, ApiKeyValue, HttpAuthScheme, HttpBuilder, SecurityScheme,
+        };
         let components = openapi.components.get_or_insert_with(Default::default);
-        for role in [Role::Client, Role::Worker] {
-            let name = security_scheme(role).expect("a role with a token");
+        for name in [CLIENT_TOKEN, WORKER_TOKEN] {
             components.add_security_scheme(
                 name,
                 SecurityScheme::Http(HttpBuilder::new().scheme(HttpAuthScheme::Bearer).build()),
             );
         }
+        components.add_security_scheme(
+            WORKER_SECRET,
+            SecurityScheme::ApiKey(ApiKey::Header(ApiKeyValue::with_description(
+                "Spindle-Worker-Secret",
+                "the worker_secret of the worker's registration (POST /v1/workers)",
+            ))),
+        );
     }
 }
 
-/// The document's name for the bearer token of `role` (none for public routes).
-fn security_scheme(role: Role) -> Option<&'static str> {
+const CLIENT_TOKEN: &str = "client_token";
+const WORKER_TOKEN: &str = "worker_token";
+const WORKER_SECRET: &str = "worker_secret";
+
+/// The document's names of the credentials `role` needs, all of them together.
+fn security_schemes(role: Role) -> &'static [&'static str] {
     match role {
-        Role::Public => None,
-        Role::Client => Some("client_token"),
-        Role::Worker => Some("worker_token"),
+        Role::Public => &[],
+        Role::Client => &[CLIENT_TOKEN],
+        Role::NewWorker => &[WORKER_TOKEN],
+        Role::Worker => &[WORKER_TOKEN, WORKER_SECRET],
     }
 }
 
-/// Marks every operation in `paths` as needing the token of `role`.
+/// An error answer of the document: `description`, with an [`ApiError`] body.
+fn error_response(description: &str) -> utoipa::openapi::Response {
+    use utoipa::openapi::{ContentBuilder, Ref, ResponseBuilder};
+    ResponseBuilder::new()
+        .description(description)
+        .content(
+            "application/json",
+            ContentBuilder::new()
+                .schema(Some(Ref::from_schema_name("ApiError")))
+                .build(),
+        )
+        .build()
+}
+
+/// Marks every operation in `paths` as needing the credentials of `role`, and documents the
+/// answers to missing or wrong ones (401 for a token, 403 for a worker secret).
 fn require_token(paths: &mut Paths, role: Role) {
-    let Some(scheme) = security_scheme(role) else {
+    let schemes = security_schemes(role);
+    let Some((first, rest)) = schemes.split_first() else {
         return;
     };
+    let mut requirement = SecurityRequirement::new(*first, Vec::<String>::new());
+    for scheme in rest {
+        requirement = requirement.add(*scheme, Vec::<String>::new());
+    }
     for item in paths.paths.values_mut() {
         let operations = [
             &mut item.get,
@@ -98,7 +134,20 @@ fn require_token(paths: &mut Paths, role: Role) {
             &mut item.patch,
         ];
         for operation in operations.into_iter().flatten() {
-            operation.security = Some(vec![SecurityRequirement::new(scheme, Vec::<String>::new())]);
+            operation.security = Some(vec![requirement.clone()]);
+            let responses = &mut operation.responses.responses;
+            responses
+                .entry("401".into())
+                .or_insert_with(|| error_response("missing or wrong bearer token").into());
+            if role == Role::Worker {
+                responses.entry("403".into()).or_insert_with(|| {
+                    error_response(
+                        "missing or wrong worker secret, or a worker id that is not the \
+                         secret's worker",
+                    )
+                    .into()
+                });
+            }
         }
     }
 }

@@ -1,5 +1,7 @@
 //! The routes workers use: register, lease a tile, read its job, renew the lease, upload the
-//! result or report a failure.
+//! result or report a failure. Every route but registration is a registered worker's
+//! ([`Role::Worker`]): the worker id in its path or body must be the one its worker secret
+//! proves ([`WorkerIdentity::check`]), so no worker can touch another's leases.
 
 use std::time::Duration;
 
@@ -24,10 +26,11 @@ use crate::extract::{ApiPath, JsonBody, RawBody, parse_json};
 use crate::lease::UploadPlan;
 use crate::limits::Limits;
 use crate::throttle;
+use crate::worker_secret::WorkerIdentity;
 
 pub(super) fn routes(limits: &Limits) -> Declared {
     vec![
-        (Role::Worker, routes!(register_worker)),
+        (Role::NewWorker, routes!(register_worker)),
         (Role::Worker, routes!(lease)),
         (Role::Worker, routes!(job_spec)),
         (Role::Worker, routes!(heartbeat)),
@@ -39,9 +42,10 @@ pub(super) fn routes(limits: &Limits) -> Declared {
     ]
 }
 
-/// Registers a worker.
+/// Registers a worker: its id, and the secret its later requests carry.
 #[utoipa::path(post, path = "/v1/workers", request_body = RegisterWorker,
-    responses((status = 200, body = WorkerRegistered), (status = 400, body = ApiError)))]
+    responses((status = 200, body = WorkerRegistered), (status = 400, body = ApiError),
+              (status = 429, body = ApiError, description = "--max-workers workers are registered and none is lost (Retry-After)")))]
 async fn register_worker(
     State(state): State<AppState>,
     JsonBody(request): JsonBody<RegisterWorker>,
@@ -58,13 +62,17 @@ async fn register_worker(
         ));
     }
     check_labels("labels", &request.labels).map_err(Error::BadRequest)?;
-    let worker_id = state.ledger().register_worker(
+    let (worker_id, worker_secret) = state.ledger().register_worker(
         &request.name,
         request.threads,
         &request.version,
         request.labels,
+        state.config().max_workers,
     )?;
-    Ok(Json(WorkerRegistered { worker_id }))
+    Ok(Json(WorkerRegistered {
+        worker_id,
+        worker_secret,
+    }))
 }
 
 /// Long-polls for a tile: 200 with a lease, or 204 when none came up within the wait.
@@ -76,9 +84,11 @@ async fn register_worker(
               (status = 429, body = ApiError, description = "the worker holds --max-leases-per-worker leases (Retry-After)")))]
 async fn lease(
     State(state): State<AppState>,
+    identity: WorkerIdentity,
     ApiPath(worker): ApiPath<u64>,
     RawBody(body): RawBody,
 ) -> Result<Response, Error> {
+    identity.check("id", worker)?;
     let request: LeaseRequest = if body.iter().all(u8::is_ascii_whitespace) {
         LeaseRequest::default()
     } else {
@@ -166,9 +176,11 @@ async fn job_spec(
               (status = 409, body = ApiError)))]
 async fn heartbeat(
     State(state): State<AppState>,
+    identity: WorkerIdentity,
     ApiPath((job, tile)): ApiPath<(u64, u32)>,
     JsonBody(hb): JsonBody<Heartbeat>,
 ) -> Result<Json<HeartbeatAck>, Error> {
+    identity.check("worker_id", hb.worker_id)?;
     Ok(Json(state.ledger().heartbeat(
         job,
         tile,
@@ -186,6 +198,7 @@ async fn heartbeat(
               (status = 413, body = ApiError)))]
 async fn upload_tile(
     State(state): State<AppState>,
+    identity: WorkerIdentity,
     ApiPath((job, tile)): ApiPath<(u64, u32)>,
     RawBody(body): RawBody,
 ) -> Result<Json<TileAck>, Error> {
@@ -204,6 +217,7 @@ async fn upload_tile(
     })
     .await
     .map_err(anyhow::Error::from)??;
+    identity.check("worker_id", upload.worker_id)?;
 
     if state.ledger().check_upload(job, tile, &upload)? == UploadPlan::Duplicate {
         return Ok(Json(TileAck {
@@ -265,9 +279,11 @@ async fn discard_files(state: &AppState, job: u64) {
     responses((status = 204), (status = 404, body = ApiError), (status = 409, body = ApiError)))]
 async fn fail_tile(
     State(state): State<AppState>,
+    identity: WorkerIdentity,
     ApiPath((job, tile)): ApiPath<(u64, u32)>,
     JsonBody(mut failure): JsonBody<TileFailure>,
 ) -> Result<StatusCode, Error> {
+    identity.check("worker_id", failure.worker_id)?;
     if failure.reason.len() > 2000 {
         let mut end = 2000;
         while !failure.reason.is_char_boundary(end) {

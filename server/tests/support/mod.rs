@@ -1,6 +1,13 @@
 //! Shared helpers of the coordinator's tests: a coordinator on a temporary data directory,
 //! driven in process through `tower::ServiceExt::oneshot` (no socket), and fake tiles of
 //! constant colour.
+//!
+//! Requests sent with the worker token carry the worker secret of the worker they name (the
+//! id in a lease path, or the body's `worker_id`; else the worker registered last), as a
+//! worker process would: [`Coordinator::send`] keeps every secret registration answered, per
+//! data directory, so a coordinator reopened on the same directory (a restart) is sent the
+//! secrets its workers were given before.
+//! Tests of the secret itself use [`Coordinator::send_as`].
 
 #![allow(dead_code)] // Each test file uses its own subset of the helpers.
 
@@ -20,11 +27,16 @@ use tower::ServiceExt;
 pub const CLIENT: &str = "client-secret";
 pub const WORKER: &str = "worker-secret";
 
+/// Worker id → secret, as registrations answered, and the id registered last.
+pub type Secrets = (std::collections::HashMap<u64, String>, Option<u64>);
+
 /// A coordinator and its data directory.
 pub struct Coordinator {
     pub app: Router,
     pub state: AppState,
     pub config: Config,
+    /// Worker id → secret, as registrations answered, and the id registered last.
+    pub secrets: std::sync::Arc<std::sync::Mutex<Secrets>>,
 }
 
 pub fn config(dir: &std::path::Path) -> Config {
@@ -36,17 +48,45 @@ pub fn config(dir: &std::path::Path) -> Config {
 
 impl Coordinator {
     pub async fn open(config: Config) -> Coordinator {
+        static BY_DIR: std::sync::Mutex<
+            Option<
+                std::collections::HashMap<
+                    std::path::PathBuf,
+                    std::sync::Arc<std::sync::Mutex<Secrets>>,
+                >,
+            >,
+        > = std::sync::Mutex::new(None);
         let state = AppState::open(config.clone())
             .await
             .expect("coordinator opens");
+        let secrets = BY_DIR
+            .lock()
+            .unwrap()
+            .get_or_insert_with(Default::default)
+            .entry(config.data_dir.clone())
+            .or_default()
+            .clone();
         Coordinator {
             app: app(state.clone()),
             state,
             config,
+            secrets,
         }
     }
 
-    /// Sends a request; `token` is the bearer token (if any); `body` is sent as is.
+    /// Another handle on the same coordinator (for a spawned task).
+    pub fn share(&self) -> Coordinator {
+        Coordinator {
+            app: self.app.clone(),
+            state: self.state.clone(),
+            config: self.config.clone(),
+            secrets: self.secrets.clone(),
+        }
+    }
+
+    /// Sends a request; `token` is the bearer token (if any); `body` is sent as is. With the
+    /// worker token, the secret of the worker the request names goes along (see the module
+    /// doc).
     pub async fn send(
         &self,
         method: Method,
@@ -54,9 +94,45 @@ impl Coordinator {
         token: Option<&str>,
         body: impl Into<Body>,
     ) -> (StatusCode, Bytes) {
+        let body: Bytes = axum::body::to_bytes(body.into(), usize::MAX).await.unwrap();
+        let secret = if token == Some(WORKER) {
+            self.secret_for(uri, &body)
+        } else {
+            None
+        };
+        let (status, bytes) = self
+            .send_as(method.clone(), uri, token, secret.as_deref(), body)
+            .await;
+        if token == Some(WORKER)
+            && method == Method::POST
+            && uri == "/v1/workers"
+            && status == StatusCode::OK
+        {
+            let v: Value = serde_json::from_slice(&bytes).unwrap();
+            let id = v["worker_id"].as_u64().unwrap();
+            let secret = v["worker_secret"].as_str().unwrap().to_string();
+            let mut secrets = self.secrets.lock().unwrap();
+            secrets.0.insert(id, secret);
+            secrets.1 = Some(id);
+        }
+        (status, bytes)
+    }
+
+    /// Sends a request with exactly the bearer token and worker secret given.
+    pub async fn send_as(
+        &self,
+        method: Method,
+        uri: &str,
+        token: Option<&str>,
+        worker_secret: Option<&str>,
+        body: impl Into<Body>,
+    ) -> (StatusCode, Bytes) {
         let mut request = Request::builder().method(method).uri(uri);
         if let Some(token) = token {
             request = request.header("authorization", format!("Bearer {token}"));
+        }
+        if let Some(secret) = worker_secret {
+            request = request.header("spindle-worker-secret", secret);
         }
         let response = self
             .app
@@ -67,6 +143,26 @@ impl Coordinator {
         let status = response.status();
         let bytes = response.into_body().collect().await.unwrap().to_bytes();
         (status, bytes)
+    }
+
+    /// The secret of the worker a worker request names: the id of `/v1/workers/{id}/…`, or
+    /// the body's `worker_id`, else the worker registered last.
+    fn secret_for(&self, uri: &str, body: &[u8]) -> Option<String> {
+        let from_path = uri
+            .strip_prefix("/v1/workers/")
+            .and_then(|rest| rest.split('/').next())
+            .and_then(|id| id.parse::<u64>().ok());
+        let from_body = serde_json::from_slice::<Value>(body)
+            .ok()
+            .and_then(|v| v["worker_id"].as_u64());
+        let secrets = self.secrets.lock().unwrap();
+        let id = from_path.or(from_body).or(secrets.1)?;
+        secrets.0.get(&id).cloned()
+    }
+
+    /// The secret registration gave `worker`.
+    pub fn secret(&self, worker: u64) -> String {
+        self.secrets.lock().unwrap().0[&worker].clone()
     }
 
     pub async fn client(
