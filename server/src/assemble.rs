@@ -126,15 +126,18 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 pub(crate) async fn finish(state: AppState, id: u64) {
     let mut delay = RETRY_FIRST;
     loop {
-        let prepared = {
-            let ledger = state.ledger();
-            ledger
-                .job(id)
-                .ok()
-                .filter(|job| !job.state.is_finished())
-                .map(|job| (job.spec.clone(), job.stats))
-                .and_then(|(spec, stats)| Some((spec, stats, ledger.done_tiles(id).ok()?)))
-        };
+        let prepared = state
+            .with_ledger(move |ledger| {
+                Ok(ledger
+                    .job(id)
+                    .ok()
+                    .filter(|job| !job.state.is_finished())
+                    .map(|job| (job.spec.clone(), job.stats))
+                    .and_then(|(spec, stats)| Some((spec, stats, ledger.done_tiles(id).ok()?))))
+            })
+            .await
+            .ok()
+            .flatten();
         let Some((spec, stats, tiles)) = prepared else {
             return; // Deleted or cancelled meanwhile.
         };
@@ -145,7 +148,10 @@ pub(crate) async fn finish(state: AppState, id: u64) {
                 .unwrap_or_else(|e| Err(AssembleError::Transient(e.into())));
         match result {
             Ok(digest) => {
-                if let Err(e) = state.ledger().finish_assembly(id, &digest) {
+                let recorded = state
+                    .with_ledger(move |l| l.finish_assembly(id, &digest))
+                    .await;
+                if let Err(e) = recorded {
                     tracing::error!(job = id, error = %e, "recording the end of assembly failed");
                     break;
                 }
@@ -158,7 +164,9 @@ pub(crate) async fn finish(state: AppState, id: u64) {
                 break;
             }
             Err(AssembleError::Damaged(tiles)) => {
-                let requeued = state.ledger().requeue_damaged(id, &tiles);
+                let requeued = state
+                    .with_ledger(move |l| l.requeue_damaged(id, &tiles))
+                    .await;
                 match requeued {
                     Ok(()) => state.work_available(),
                     Err(e) => {

@@ -154,6 +154,29 @@ impl AppState {
         self.inner.ledger.lock().unwrap_or_else(|p| p.into_inner())
     }
 
+    /// Runs `f` on the locked ledger on a blocking thread, for ledger calls that write to
+    /// SQLite: a commit, and a wait for the lock while another commit holds it, must not stall
+    /// the async runtime's threads, which serve every other request meanwhile. The call runs to
+    /// its end even if the request is dropped meanwhile, as a commit must, inside the caller's
+    /// span.
+    pub(crate) async fn with_ledger<T, F>(&self, f: F) -> Result<T, error::Error>
+    where
+        T: Send + 'static,
+        F: FnOnce(&mut Ledger) -> Result<T, error::Error> + Send + 'static,
+    {
+        let state = self.clone();
+        // Lines the ledger logs go where the caller's go, in the request's span (its id).
+        let span = tracing::Span::current();
+        let dispatch = tracing::dispatcher::get_default(|d| d.clone());
+        tokio::task::spawn_blocking(move || {
+            tracing::dispatcher::with_default(&dispatch, || {
+                span.in_scope(|| f(&mut state.ledger()))
+            })
+        })
+        .await
+        .map_err(anyhow::Error::from)?
+    }
+
     pub(crate) fn assets(&self) -> &AssetStore {
         &self.inner.assets
     }

@@ -157,6 +157,11 @@ pub struct TestCa {
 impl TestCa {
     /// Makes the CA and the server certificate, writing the files into `dir`.
     pub fn create(dir: &Path) -> Result<TestCa> {
+        TestCa::create_for(dir, &["localhost", "127.0.0.1"])
+    }
+
+    /// [`TestCa::create`] with a server certificate for these names and IP addresses.
+    pub fn create_for(dir: &Path, names: &[&str]) -> Result<TestCa> {
         let ca_key = rcgen::KeyPair::generate()?;
         let mut ca_params = rcgen::CertificateParams::new(Vec::<String>::new())?;
         ca_params.is_ca = rcgen::IsCa::Ca(rcgen::BasicConstraints::Unconstrained);
@@ -165,9 +170,8 @@ impl TestCa {
             .push(rcgen::DnType::CommonName, "spindle test CA");
         let ca = rcgen::CertifiedIssuer::self_signed(ca_params, ca_key)?;
         let server_key = rcgen::KeyPair::generate()?;
-        let server =
-            rcgen::CertificateParams::new(vec!["localhost".to_string(), "127.0.0.1".to_string()])?
-                .signed_by(&server_key, &ca)?;
+        let names = names.iter().map(|n| n.to_string()).collect::<Vec<_>>();
+        let server = rcgen::CertificateParams::new(names)?.signed_by(&server_key, &ca)?;
         let files = TestCa {
             ca_cert: dir.join("ca.pem"),
             server_cert: dir.join("server.pem"),

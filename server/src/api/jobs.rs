@@ -63,19 +63,22 @@ async fn submit_job(
     let limits = &state.config().limits;
     admission::admit(&submit, limits, state.assets()).await?;
     let new = NewJob::new(submit, key)?;
-    let (info, created) = {
-        let mut ledger = state.ledger();
-        // Checked again under the lock the sweep deletes unreferenced assets under: once the
-        // job is stored, its assets are kept as long as it is.
-        for (path, hash) in &new.spec.assets {
-            if !state.assets().has(hash)? {
-                return Err(Error::BadRequest(format!(
-                    "assets.{path}: asset {hash} is not uploaded (PUT /v1/assets/{hash} first)"
-                )));
+    let max_active = limits.max_active_jobs;
+    let assets = state.clone();
+    let (info, created) = state
+        .with_ledger(move |ledger| {
+            // Checked again under the lock the sweep deletes unreferenced assets under: once
+            // the job is stored, its assets are kept as long as it is.
+            for (path, hash) in &new.spec.assets {
+                if !assets.assets().has(hash)? {
+                    return Err(Error::BadRequest(format!(
+                        "assets.{path}: asset {hash} is not uploaded (PUT /v1/assets/{hash} first)"
+                    )));
+                }
             }
-        }
-        ledger.submit(new, limits.max_active_jobs)?
-    };
+            ledger.submit(new, max_active)
+        })
+        .await?;
     if created {
         state.work_available();
         Ok((StatusCode::CREATED, Json(info)))
@@ -164,7 +167,7 @@ async fn pause_job(
     State(state): State<AppState>,
     ApiPath(id): ApiPath<u64>,
 ) -> Result<Json<JobInfo>, Error> {
-    Ok(Json(state.ledger().pause(id)?))
+    Ok(Json(state.with_ledger(move |l| l.pause(id)).await?))
 }
 
 /// Resumes a paused job.
@@ -175,7 +178,7 @@ async fn resume_job(
     State(state): State<AppState>,
     ApiPath(id): ApiPath<u64>,
 ) -> Result<Json<JobInfo>, Error> {
-    let info = state.ledger().resume(id)?;
+    let info = state.with_ledger(move |l| l.resume(id)).await?;
     state.work_available();
     Ok(Json(info))
 }
@@ -190,7 +193,7 @@ async fn requeue_job(
     ApiPath(id): ApiPath<u64>,
 ) -> Result<Json<JobInfo>, Error> {
     let max = state.config().limits.max_active_jobs;
-    let info = state.ledger().requeue(id, max)?;
+    let info = state.with_ledger(move |l| l.requeue(id, max)).await?;
     // A job cancelled with every tile in is finished by assembly.
     state.assemble_complete_jobs();
     state.work_available();
@@ -212,7 +215,9 @@ async fn patch_job(
             "priority: missing (nothing to change)".into(),
         ));
     };
-    let info = state.ledger().set_priority(id, priority)?;
+    let info = state
+        .with_ledger(move |l| l.set_priority(id, priority))
+        .await?;
     state.work_available();
     Ok(Json(info))
 }
@@ -235,7 +240,7 @@ async fn cancel_job(
     State(state): State<AppState>,
     ApiPath(id): ApiPath<u64>,
 ) -> Result<Json<JobInfo>, Error> {
-    Ok(Json(state.ledger().cancel(id)?))
+    Ok(Json(state.with_ledger(move |l| l.cancel(id)).await?))
 }
 
 /// The query of `DELETE /v1/jobs/{id}`.
@@ -260,7 +265,8 @@ async fn delete_job(
     query: Result<Query<DeleteQuery>, QueryRejection>,
 ) -> Result<StatusCode, Error> {
     let Query(query) = query.map_err(|e| Error::BadRequest(format!("query: {}", e.body_text())))?;
-    state.ledger().delete(id, query.force)?;
+    let force = query.force;
+    state.with_ledger(move |l| l.delete(id, force)).await?;
     // The job is gone for every request from here on. An upload still writing into its
     // directory removes it again when it finds the job gone, so a failed removal (a file
     // appearing meanwhile) is logged, not answered as a failure of the delete.

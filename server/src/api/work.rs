@@ -62,13 +62,18 @@ async fn register_worker(
         ));
     }
     check_labels("labels", &request.labels).map_err(Error::BadRequest)?;
-    let (worker_id, worker_secret) = state.ledger().register_worker(
-        &request.name,
-        request.threads,
-        &request.version,
-        request.labels,
-        state.config().max_workers,
-    )?;
+    let max_workers = state.config().max_workers;
+    let (worker_id, worker_secret) = state
+        .with_ledger(move |ledger| {
+            ledger.register_worker(
+                &request.name,
+                request.threads,
+                &request.version,
+                request.labels,
+                max_workers,
+            )
+        })
+        .await?;
     Ok(Json(WorkerRegistered {
         worker_id,
         worker_secret,
@@ -108,14 +113,16 @@ async fn lease(
         let notified = state.work_notified();
         tokio::pin!(notified);
         notified.as_mut().enable();
-        let (lease, next_expiry) = {
-            let mut ledger = state.ledger();
-            throttle::check_lease_cap(&ledger, worker, state.config().max_leases_per_worker)?;
-            (
-                ledger.try_lease(worker, Instant::now())?,
-                ledger.next_expiry(),
-            )
-        };
+        let max_leases = state.config().max_leases_per_worker;
+        let (lease, next_expiry) = state
+            .with_ledger(move |ledger| {
+                throttle::check_lease_cap(ledger, worker, max_leases)?;
+                Ok((
+                    ledger.try_lease(worker, Instant::now())?,
+                    ledger.next_expiry(),
+                ))
+            })
+            .await?;
         if let Some(lease) = lease {
             crate::metrics::lease_granted(&lease);
             return Ok(Json(lease).into_response());
@@ -219,7 +226,10 @@ async fn upload_tile(
     .map_err(anyhow::Error::from)??;
     identity.check("worker_id", upload.worker_id)?;
 
-    if state.ledger().check_upload(job, tile, &upload)? == UploadPlan::Duplicate {
+    let (plan, upload) = state
+        .with_ledger(move |ledger| Ok((ledger.check_upload(job, tile, &upload)?, upload)))
+        .await?;
+    if plan == UploadPlan::Duplicate {
         return Ok(Json(TileAck {
             outcome: TileOutcome::Duplicate,
         }));
@@ -247,7 +257,9 @@ async fn upload_tile(
             ));
         }
     };
-    let recorded = state.ledger().record_upload(job, tile, &upload);
+    let (recorded, upload) = state
+        .with_ledger(move |ledger| Ok((ledger.record_upload(job, tile, &upload), upload)))
+        .await?;
     let (outcome, complete) = match recorded {
         Ok(r) => r,
         Err(Error::NotFound(m)) => {
@@ -292,8 +304,8 @@ async fn fail_tile(
         failure.reason.truncate(end);
     }
     state
-        .ledger()
-        .fail_tile(job, tile, &failure, Instant::now())?;
+        .with_ledger(move |ledger| ledger.fail_tile(job, tile, &failure, Instant::now()))
+        .await?;
     crate::metrics::tile_failed();
     state.work_available();
     Ok(StatusCode::NO_CONTENT)

@@ -39,7 +39,7 @@ async fn drain_worker(
     State(state): State<AppState>,
     ApiPath(name_or_id): ApiPath<String>,
 ) -> Result<Json<WorkerList>, Error> {
-    let workers = state.ledger().drain(&name_or_id)?;
+    let workers = state.with_ledger(move |l| l.drain(&name_or_id)).await?;
     // Lease polls of the drained workers wake and answer 410.
     state.work_available();
     Ok(Json(WorkerList { workers }))
