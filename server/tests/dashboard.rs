@@ -54,6 +54,11 @@ async fn pages_are_served_with_security_headers_in_front_of_the_same_api() {
             "text/javascript",
             "export function blake3Hex",
         ),
+        (
+            "/dashboard/vendor/noble-hashes/blake3.js",
+            "text/javascript",
+            "export const blake3",
+        ),
         ("/dashboard/docs.js", "text/javascript", "/v1/openapi.json"),
         ("/dashboard/style.css", "text/css", "@media"),
     ] {
