@@ -16,12 +16,12 @@ use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use spindle_common::image::Image;
 use spindle_common::protocol::DEFAULT_TILE_SIZE;
+use spindle_common::provenance::Provenance;
 use spindle_common::scene::SceneDescription;
 use spindle_common::stats::RenderStats;
 use spindle_common::tile::LAYER_NAMES;
 use spindle_common::tile::TileRect;
-use spindle_render::scatter::describe_plan;
-use spindle_render::{Scene, render_pixel};
+use spindle_render::{Scene, provenance, render_pixel};
 
 use spindle_common::scene_files::load_scene;
 
@@ -169,10 +169,10 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
     args.edit(&mut files.desc);
     let desc = files.desc.clone();
     // The workers build the scene again; here it is built once to say the single-scattering plan.
-    let scatter_plan = Scene::build(&files.desc, &files.assets)
-        .map(|scene| describe_plan(&scene))
+    let provenance = Scene::build(&files.desc, &files.assets)
+        .map(|scene| provenance(&scene))
         .with_context(|| format!("invalid scene {}", args.scene.display()))?;
-    print_plan(&scatter_plan);
+    print_plan(&provenance.plan);
     drop(files);
     let result = crate::local_farm::render(workers, |api| async move {
         let edit = |s: &mut SceneDescription| args.edit(s);
@@ -194,11 +194,7 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
     let stats = result.job.stats;
     let per_worker: Vec<String> = result.tiles_per_worker.iter().map(u64::to_string).collect();
     let a = &mut image.attributes;
-    describe(a, args, &desc, &stats);
-    a.insert(
-        "spindle.single_scatter.plan".into(),
-        scatter_plan.join("; "),
-    );
+    describe(a, args, &desc, &stats, &provenance);
     a.insert("spindle.workers".into(), workers.to_string());
     let preview = write_outputs(&image, args)?;
     println!(
@@ -230,8 +226,8 @@ fn in_process(args: &RenderArgs) -> Result<()> {
     for warning in scene.warnings() {
         eprintln!("warning: {warning}");
     }
-    let scatter_plan = describe_plan(&scene);
-    print_plan(&scatter_plan);
+    let provenance = provenance(&scene);
+    print_plan(&provenance.plan);
 
     let full = TileRect {
         x: 0,
@@ -299,14 +295,7 @@ fn in_process(args: &RenderArgs) -> Result<()> {
     let rendered = render_started.elapsed();
 
     let a = &mut image.attributes;
-    describe(a, args, &files.desc, &stats);
-    a.insert(
-        "spindle.single_scatter.plan".into(),
-        scatter_plan.join("; "),
-    );
-    a.insert("spindle.triangles".into(), summary.triangles.to_string());
-    a.insert("spindle.objects".into(), summary.objects.to_string());
-    a.insert("spindle.lights".into(), summary.lights.to_string());
+    describe(a, args, &files.desc, &stats, &provenance);
     a.insert(
         "spindle.region".into(),
         format!(
@@ -314,9 +303,6 @@ fn in_process(args: &RenderArgs) -> Result<()> {
             region.x, region.y, region.width, region.height
         ),
     );
-    if !summary.warnings.is_empty() {
-        a.insert("spindle.warnings".into(), summary.warnings.join("; "));
-    }
     let preview = write_outputs(&image, args)?;
 
     println!(
@@ -353,13 +339,15 @@ fn print_plan(plan: &[String]) {
     }
 }
 
-/// The header attributes both paths write.
+/// The header attributes both paths write (the provenance's as the farm writes them).
 fn describe(
     a: &mut std::collections::BTreeMap<String, String>,
     args: &RenderArgs,
     desc: &SceneDescription,
     stats: &RenderStats,
+    provenance: &Provenance,
 ) {
+    a.extend(provenance.header_attributes());
     a.insert("spindle.scene".into(), args.scene.display().to_string());
     a.insert("spindle.spp".into(), desc.film.spp.to_string());
     a.insert("spindle.seed".into(), desc.film.seed.to_string());

@@ -153,6 +153,7 @@ mod tests {
             requires: Default::default(),
             workers_eligible: workers_live,
             stats: Default::default(),
+            provenance: None,
         }
     }
 

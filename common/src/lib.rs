@@ -6,6 +6,7 @@
 pub mod atomic_write;
 pub mod image;
 pub mod protocol;
+pub mod provenance;
 pub mod scene;
 pub mod scene_files;
 pub mod stats;

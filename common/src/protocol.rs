@@ -58,6 +58,7 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
+use crate::provenance::Provenance;
 use crate::scene::SceneDescription;
 use crate::stats::RenderStats;
 use crate::tile::{TilePixels, TileRect};
@@ -257,6 +258,11 @@ pub struct JobInfo {
     pub workers_eligible: u32,
     /// Counters of the tiles received so far.
     pub stats: RenderStats,
+    /// What the job's scene builds to — renderer version, objects, triangles, lights, warnings
+    /// and the single-scattering plan — as the first worker to deliver a tile reported it
+    /// (absent until then); written into the job's EXR header.
+    #[serde(default)]
+    pub provenance: Option<Provenance>,
 }
 
 /// How many tile failures a [`JobInfo`] keeps (the newest).
@@ -303,6 +309,9 @@ pub struct TileInfo {
     pub worker: Option<String>,
     /// Workers that reported a failure of this tile.
     pub failures: u32,
+    /// A done tile's render time as its worker reported it, in seconds, when known.
+    #[serde(default)]
+    pub render_seconds: Option<f64>,
 }
 
 /// Every tile of a job, by index.
@@ -479,13 +488,16 @@ pub enum EventKind {
         error: Option<String>,
     },
     /// A tile was accepted; `seconds` from its lease to its upload (absent when the lease was
-    /// granted before a coordinator restart).
+    /// granted before a coordinator restart), `render_seconds` the worker's own render time
+    /// (absent when it did not report one).
     TileDone {
         job: u64,
         tile: u32,
         worker_id: u64,
         worker: String,
         seconds: Option<f64>,
+        #[serde(default)]
+        render_seconds: Option<f64>,
     },
     WorkerJoined {
         worker_id: u64,
@@ -600,6 +612,35 @@ pub struct TileUpload {
     /// [`pixel_hash`] of `pixels`; the coordinator recomputes it (400 on mismatch).
     pub hash: String,
     pub pixels: TilePixels,
+    /// Wall-clock seconds the worker spent rendering the tile (finite, 0 to
+    /// [`MAX_RENDER_SECONDS`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub render_seconds: Option<f64>,
+    /// What the worker built from the job's scene ([`Provenance::check`] bounds it); the
+    /// coordinator keeps the first one a job receives and writes it into the job's EXR header.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub provenance: Option<Provenance>,
+}
+
+/// The largest [`TileUpload::render_seconds`] accepted: a week.
+pub const MAX_RENDER_SECONDS: f64 = 7.0 * 24.0 * 3600.0;
+
+impl TileUpload {
+    /// Checks the fields a worker reports about its render (not the pixels); the error names
+    /// the field.
+    pub fn check_report(&self) -> Result<(), String> {
+        if let Some(s) = self.render_seconds
+            && !(s.is_finite() && (0.0..=MAX_RENDER_SECONDS).contains(&s))
+        {
+            return Err(format!(
+                "render_seconds: must be finite, 0 to {MAX_RENDER_SECONDS}, got {s}"
+            ));
+        }
+        match &self.provenance {
+            Some(p) => p.check(),
+            None => Ok(()),
+        }
+    }
 }
 
 /// How the coordinator took a tile upload.

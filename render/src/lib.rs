@@ -18,6 +18,7 @@ pub mod medium;
 pub mod mesh;
 pub mod obj;
 pub mod procedural;
+pub mod provenance;
 pub mod ray;
 pub mod rgb;
 pub mod sampler;
@@ -29,6 +30,7 @@ pub mod transform;
 pub mod transport;
 
 pub use frame::render_frame;
+pub use provenance::provenance;
 pub use rgb::Rgb;
 pub use scene::{Assets, Scene};
 pub use spindle_common::validate::SceneError;

@@ -18,7 +18,8 @@ const state = {
   workers: [],
   selected: null,
   lastEventId: null,
-  /// job id → Map(tile index → {worker, seconds}) from tile_done events seen by this page.
+  /// job id → Map(tile index → {worker, seconds}) from tile_done events seen by this page
+  /// (`seconds`: the worker's render time).
   tileTimes: new Map(),
   tiles: null,
   stream: null,
@@ -287,6 +288,7 @@ function buildJobView(id) {
           el('span', { class: 'key leased' }, 'leased'), ' ', el('span', { class: 'key done' }, 'done'),
           ' ', el('span', { class: 'key failed' }, 'failed')))),
     el('div', { id: 'job-errors' }),
+    el('div', { id: 'job-plan' }),
     el('details', {}, el('summary', {}, 'Statistics'), el('table', { id: 'job-stats', class: 'stats' })));
 }
 
@@ -361,9 +363,25 @@ function renderJob(job) {
       el('li', {}, `${when(e.at_ms)} tile ${e.tile} on ${e.worker || `worker ${e.worker_id}`}: ${e.message}`))));
   }
   $('job-errors').replaceChildren(...errors);
+  renderProvenance(job.provenance);
   $('job-stats').replaceChildren(...Object.entries(job.stats).map(([k, v]) =>
     el('tr', {}, el('th', {}, k.replaceAll('_', ' ')), el('td', { class: 'num' },
       Array.isArray(v) ? v.join(', ') : String(v)))));
+}
+
+/// The scene as the workers built it and the single-scattering plan, as text (a worker's
+/// report is untrusted: it never becomes markup).
+function renderProvenance(p) {
+  if (!p) {
+    $('job-plan').replaceChildren(el('p', { class: 'muted' }, 'Plan: reported with the first tile.'));
+    return;
+  }
+  const lines = [
+    `${p.renderer}: ${p.objects} object(s), ${p.triangles} triangles, ${p.lights} light(s)`,
+    ...p.plan.map((line) => `single scattering: ${line}`),
+    ...p.warnings.map((line) => `warning: ${line}`),
+  ];
+  $('job-plan').replaceChildren(el('h3', {}, 'Plan'), el('pre', { id: 'job-plan-text' }, lines.join('\n')));
 }
 
 async function loadPreview(id) {
@@ -393,9 +411,10 @@ function renderTiles(id) {
   box.replaceChildren(...state.tiles.map((t) => {
     const seen = times.get(t.index);
     const worker = t.worker || (seen && seen.worker);
+    const seconds = t.render_seconds ?? (seen && seen.seconds);
     const parts = [`tile ${t.index}: ${t.state}`];
     if (worker) parts.push(`worker ${worker}`);
-    if (seen && seen.seconds != null) parts.push(`${seen.seconds.toFixed(2)} s`);
+    if (t.state === 'done' && Number.isFinite(seconds)) parts.push(`rendered in ${seconds.toFixed(2)} s`);
     if (t.failures) parts.push(`${t.failures} failure(s)`);
     const cell = el('div', { class: `tile ${t.state}`, title: parts.join(', '), 'data-tile': t.index });
     cell.style.left = `${(100 * t.rect.x) / job.width}%`;
@@ -505,7 +524,7 @@ function onEvent(message) {
       break;
     case 'tile_done': {
       const times = state.tileTimes.get(event.job) || new Map();
-      times.set(event.tile, { worker: event.worker, seconds: event.seconds });
+      times.set(event.tile, { worker: event.worker, seconds: event.render_seconds });
       state.tileTimes.set(event.job, times);
       const job = state.jobs.get(event.job);
       if (job && job.tiles_done < job.tiles_total) {

@@ -3,8 +3,11 @@
 //!
 //! Tiles are inserted in tile index order and the EXR writer's bytes depend only on the image,
 //! so the file does not depend on which worker rendered which tile or in what order tiles
-//! arrived. The header carries the film's settings and the summed render statistics
-//! (`spindle.stats.<counter>`), the same names `spindle render` writes.
+//! arrived. The header carries the film's settings, the summed render statistics
+//! (`spindle.stats.<counter>`) and the job's provenance as its workers reported it (renderer,
+//! objects, triangles, lights, warnings, the single-scattering plan:
+//! `Provenance::header_attributes`), the same names and values `spindle render --workers 0`
+//! writes.
 //!
 //! Assembly never fails a job whose tiles are all in: a stored tile found damaged (missing,
 //! truncated, altered) goes back to the queue to be rendered again, and any other error (I/O,
@@ -15,6 +18,7 @@ use std::time::Duration;
 
 use spindle_common::image::Image;
 use spindle_common::protocol::JobSpec;
+use spindle_common::provenance::Provenance;
 use spindle_common::stats::RenderStats;
 
 use crate::AppState;
@@ -61,7 +65,11 @@ pub fn frame(
 }
 
 /// The EXR header attributes of a finished job.
-pub fn attributes(spec: &JobSpec, stats: &RenderStats) -> anyhow::Result<Vec<(String, String)>> {
+pub fn attributes(
+    spec: &JobSpec,
+    stats: &RenderStats,
+    provenance: Option<&Provenance>,
+) -> anyhow::Result<Vec<(String, String)>> {
     let film = &spec.scene.film;
     let mut attributes = vec![
         ("spindle.spp".to_string(), film.spp.to_string()),
@@ -78,6 +86,9 @@ pub fn attributes(spec: &JobSpec, stats: &RenderStats) -> anyhow::Result<Vec<(St
     for (name, value) in stats.entries() {
         attributes.push((format!("spindle.stats.{name}"), value.to_string()));
     }
+    if let Some(provenance) = provenance {
+        attributes.extend(provenance.header_attributes());
+    }
     Ok(attributes)
 }
 
@@ -89,6 +100,7 @@ pub fn write_final(
     spec: &JobSpec,
     tiles: &[(u32, String)],
     stats: &RenderStats,
+    provenance: Option<&Provenance>,
 ) -> Result<String, AssembleError> {
     let expected = spindle_common::tile::split_centre_first(
         spec.scene.film.width,
@@ -104,7 +116,9 @@ pub fn write_final(
     if !damaged.is_empty() {
         return Err(AssembleError::Damaged(damaged));
     }
-    image.attributes.extend(attributes(spec, stats)?);
+    image
+        .attributes
+        .extend(attributes(spec, stats, provenance)?);
     let bytes = image.to_exr_bytes().map_err(anyhow::Error::from)?;
     spindle_common::atomic_write::write(store.image_path(job), &bytes)
         .map_err(anyhow::Error::from)?;
@@ -132,20 +146,23 @@ pub(crate) async fn finish(state: AppState, id: u64) {
                     .job(id)
                     .ok()
                     .filter(|job| !job.state.is_finished())
-                    .map(|job| (job.spec.clone(), job.stats))
-                    .and_then(|(spec, stats)| Some((spec, stats, ledger.done_tiles(id).ok()?))))
+                    .map(|job| (job.spec.clone(), job.stats, job.provenance.clone()))
+                    .and_then(|(spec, stats, provenance)| {
+                        Some((spec, stats, provenance, ledger.done_tiles(id).ok()?))
+                    }))
             })
             .await
             .ok()
             .flatten();
-        let Some((spec, stats, tiles)) = prepared else {
+        let Some((spec, stats, provenance, tiles)) = prepared else {
             return; // Deleted or cancelled meanwhile.
         };
         let store = state.tile_store().clone();
-        let result =
-            tokio::task::spawn_blocking(move || write_final(&store, id, &spec, &tiles, &stats))
-                .await
-                .unwrap_or_else(|e| Err(AssembleError::Transient(e.into())));
+        let result = tokio::task::spawn_blocking(move || {
+            write_final(&store, id, &spec, &tiles, &stats, provenance.as_deref())
+        })
+        .await
+        .unwrap_or_else(|e| Err(AssembleError::Transient(e.into())));
         match result {
             Ok(digest) => {
                 let recorded = state

@@ -59,6 +59,36 @@ const ASSETS: &[Asset] = &[
         body: include_str!("../dashboard/blake3.js"),
     },
     Asset {
+        path: "/dashboard/vendor/noble-hashes/_blake.js",
+        content_type: JS,
+        body: include_str!("../dashboard/vendor/noble-hashes/_blake.js"),
+    },
+    Asset {
+        path: "/dashboard/vendor/noble-hashes/_md.js",
+        content_type: JS,
+        body: include_str!("../dashboard/vendor/noble-hashes/_md.js"),
+    },
+    Asset {
+        path: "/dashboard/vendor/noble-hashes/_u64.js",
+        content_type: JS,
+        body: include_str!("../dashboard/vendor/noble-hashes/_u64.js"),
+    },
+    Asset {
+        path: "/dashboard/vendor/noble-hashes/blake2.js",
+        content_type: JS,
+        body: include_str!("../dashboard/vendor/noble-hashes/blake2.js"),
+    },
+    Asset {
+        path: "/dashboard/vendor/noble-hashes/blake3.js",
+        content_type: JS,
+        body: include_str!("../dashboard/vendor/noble-hashes/blake3.js"),
+    },
+    Asset {
+        path: "/dashboard/vendor/noble-hashes/utils.js",
+        content_type: JS,
+        body: include_str!("../dashboard/vendor/noble-hashes/utils.js"),
+    },
+    Asset {
         path: "/dashboard/docs.js",
         content_type: JS,
         body: include_str!("../dashboard/docs.js"),

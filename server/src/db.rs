@@ -14,7 +14,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use rusqlite::{Connection, Transaction, params};
-use spindle_common::protocol::JobState;
+use spindle_common::protocol::{JobState, TileUpload};
 use spindle_common::stats::RenderStats;
 
 /// Migrations, in order; entry `i` moves the schema from version `i` to `i + 1`.
@@ -83,6 +83,14 @@ const MIGRATIONS: &[&str] = &[
     // The SHA-256 of each worker's secret (32 bytes); NULL for workers registered before
     // secrets, which must register again.
     "ALTER TABLE workers ADD COLUMN secret_sha256 BLOB;",
+    // A job's provenance (protocol's `Provenance` as JSON, from the first tile that carried
+    // one), each done tile's render seconds as its worker reported them, and a done job's
+    // `[index, worker id, render seconds]` per tile, kept when its tile rows are deleted.
+    r#"
+    ALTER TABLE jobs ADD COLUMN provenance TEXT;
+    ALTER TABLE tiles ADD COLUMN render_seconds REAL;
+    ALTER TABLE jobs ADD COLUMN tile_times TEXT;
+"#,
 ];
 
 /// Opens (creating if needed) the database at `path` and brings its schema up to date.
@@ -135,6 +143,8 @@ pub struct JobRow {
     pub totals: Option<(u32, RenderStats)>,
     /// The SHA-256 of a done job's EXR, hex.
     pub image_sha256: Option<String>,
+    /// The job's provenance as JSON, once a tile brought one.
+    pub provenance_json: Option<String>,
 }
 
 /// A tile row as stored.
@@ -143,7 +153,12 @@ pub struct TileRow {
     pub state: TileRowState,
     pub epoch: u64,
     pub worker_id: Option<u64>,
+    /// A done tile's render seconds as its worker reported them.
+    pub render_seconds: Option<f64>,
 }
+
+/// Who rendered a done tile and how long it took, as a done job keeps it.
+pub type TileTime = (u32, Option<u64>, Option<f64>);
 
 /// The stored state of a tile that has been leased at least once.
 #[derive(Debug, Clone, PartialEq)]
@@ -190,7 +205,7 @@ pub fn load_jobs(conn: &Connection) -> anyhow::Result<Vec<JobRow>> {
     let mut stmt = conn.prepare(
         "SELECT id, spec, priority, state, error, idempotency_key, request_hash, created_ms,
                 started_ms, finished_ms, requires, name, submitter, tiles_done, stats,
-                image_sha256
+                image_sha256, provenance
          FROM jobs ORDER BY id",
     )?;
     let rows = stmt.query_map([], |r| {
@@ -211,6 +226,7 @@ pub fn load_jobs(conn: &Connection) -> anyhow::Result<Vec<JobRow>> {
                 finished_ms: r.get(9)?,
                 totals: None,
                 image_sha256: r.get(15)?,
+                provenance_json: r.get(16)?,
             },
             r.get::<_, String>(3)?,
             r.get::<_, Option<u32>>(13)?,
@@ -235,7 +251,8 @@ pub fn load_jobs(conn: &Connection) -> anyhow::Result<Vec<JobRow>> {
 /// The stored tiles of a job, by index.
 pub fn load_tiles(conn: &Connection, job: u64) -> anyhow::Result<BTreeMap<u32, TileRow>> {
     let mut stmt = conn.prepare(
-        "SELECT tile_index, state, epoch, worker_id, hash, stats FROM tiles WHERE job_id = ?1",
+        "SELECT tile_index, state, epoch, worker_id, hash, stats, render_seconds
+         FROM tiles WHERE job_id = ?1",
     )?;
     let mut rows = stmt.query([job as i64])?;
     let mut tiles = BTreeMap::new();
@@ -262,6 +279,7 @@ pub fn load_tiles(conn: &Connection, job: u64) -> anyhow::Result<BTreeMap<u32, T
             state,
             epoch: r.get::<_, i64>(2)? as u64,
             worker_id: r.get::<_, Option<i64>>(3)?.map(|w| w as u64),
+            render_seconds: r.get(6)?,
         };
         tiles.insert(index, row);
     }
@@ -305,8 +323,8 @@ pub fn done_hash(conn: &Connection, job: u64, index: u32) -> rusqlite::Result<Op
     .map(Option::flatten)
 }
 
-/// Records a done job's totals (and its image's SHA-256, when just written) and deletes its
-/// tile rows: its image holds the pixels now.
+/// Records a done job's totals, its tiles' workers and render times (and its image's
+/// SHA-256, when just written) and deletes its tile rows: its image holds the pixels now.
 pub fn settle_done_job(
     tx: &Transaction<'_>,
     job: u64,
@@ -314,17 +332,59 @@ pub fn settle_done_job(
     stats: &RenderStats,
     image_sha256: Option<&str>,
 ) -> anyhow::Result<()> {
+    let times: Vec<TileTime> = tx
+        .prepare(
+            "SELECT tile_index, worker_id, render_seconds FROM tiles
+             WHERE job_id = ?1 AND state = 'done' ORDER BY tile_index",
+        )?
+        .query_map([job as i64], |r| {
+            Ok((
+                r.get(0)?,
+                r.get::<_, Option<i64>>(1)?.map(|w| w as u64),
+                r.get(2)?,
+            ))
+        })?
+        .collect::<rusqlite::Result<_>>()?;
+    let times = match times.is_empty() {
+        true => None,
+        false => Some(serde_json::to_string(&times)?),
+    };
     tx.execute(
-        "UPDATE jobs SET tiles_done = ?2, stats = ?3, image_sha256 = COALESCE(?4, image_sha256)
+        "UPDATE jobs SET tiles_done = ?2, stats = ?3, image_sha256 = COALESCE(?4, image_sha256),
+                         tile_times = COALESCE(?5, tile_times)
          WHERE id = ?1",
         params![
             job as i64,
             tiles_done,
             serde_json::to_string(stats)?,
-            image_sha256
+            image_sha256,
+            times
         ],
     )?;
     tx.execute("DELETE FROM tiles WHERE job_id = ?1", [job as i64])?;
+    Ok(())
+}
+
+/// A done job's tiles' workers and render times, in index order (empty for a job done before
+/// they were kept).
+pub fn tile_times(conn: &Connection, job: u64) -> anyhow::Result<Vec<TileTime>> {
+    let json: Option<String> = conn.query_row(
+        "SELECT tile_times FROM jobs WHERE id = ?1",
+        [job as i64],
+        |r| r.get(0),
+    )?;
+    Ok(match json {
+        Some(json) => serde_json::from_str(&json)?,
+        None => Vec::new(),
+    })
+}
+
+/// Records a job's provenance unless it has one already.
+pub fn set_provenance(tx: &Transaction<'_>, job: u64, json: &str) -> rusqlite::Result<()> {
+    tx.execute(
+        "UPDATE jobs SET provenance = ?2 WHERE id = ?1 AND provenance IS NULL",
+        params![job as i64, json],
+    )?;
     Ok(())
 }
 
@@ -498,23 +558,23 @@ pub fn record_done(
     tx: &Transaction<'_>,
     job: u64,
     index: u32,
-    epoch: u64,
-    worker: u64,
-    hash: &str,
-    stats: &RenderStats,
+    upload: &TileUpload,
 ) -> anyhow::Result<()> {
     tx.execute(
-        "INSERT INTO tiles (job_id, tile_index, state, epoch, worker_id, hash, stats)
-         VALUES (?1, ?2, 'done', ?3, ?4, ?5, ?6)
+        "INSERT INTO tiles (job_id, tile_index, state, epoch, worker_id, hash, stats,
+                            render_seconds)
+         VALUES (?1, ?2, 'done', ?3, ?4, ?5, ?6, ?7)
          ON CONFLICT (job_id, tile_index) DO UPDATE
-           SET state = 'done', epoch = ?3, worker_id = ?4, hash = ?5, stats = ?6",
+           SET state = 'done', epoch = ?3, worker_id = ?4, hash = ?5, stats = ?6,
+               render_seconds = ?7",
         params![
             job as i64,
             index,
-            epoch as i64,
-            worker as i64,
-            hash,
-            serde_json::to_string(stats)?
+            upload.epoch as i64,
+            upload.worker_id as i64,
+            upload.hash,
+            serde_json::to_string(&upload.pixels.stats)?,
+            upload.render_seconds
         ],
     )?;
     Ok(())
@@ -553,7 +613,7 @@ pub fn record_failure(
 /// its next lease has a higher one.
 pub fn requeue_tile(tx: &Transaction<'_>, job: u64, index: u32) -> rusqlite::Result<()> {
     tx.execute(
-        "UPDATE tiles SET state = 'pending', hash = NULL, stats = NULL
+        "UPDATE tiles SET state = 'pending', hash = NULL, stats = NULL, render_seconds = NULL
          WHERE job_id = ?1 AND tile_index = ?2",
         params![job as i64, index],
     )?;
@@ -597,6 +657,7 @@ mod tests {
             finished_ms: None,
             totals: None,
             image_sha256: None,
+            provenance_json: None,
         };
         let id = insert_job(&conn, &row).unwrap();
         record_lease(&conn, id, 7, 1, 42).unwrap();
@@ -609,11 +670,27 @@ mod tests {
             samples: 9,
             ..RenderStats::default()
         };
-        record_done(&tx, id, 7, 2, 43, "abc", &stats).unwrap();
+        let mut pixels = spindle_common::tile::TilePixels::black(spindle_common::tile::TileRect {
+            x: 0,
+            y: 0,
+            width: 1,
+            height: 1,
+        });
+        pixels.stats = stats;
+        let upload = TileUpload {
+            worker_id: 43,
+            epoch: 2,
+            hash: "abc".into(),
+            pixels,
+            render_seconds: Some(0.25),
+            provenance: None,
+        };
+        record_done(&tx, id, 7, &upload).unwrap();
         tx.commit().unwrap();
         let tiles = load_tiles(&conn, id).unwrap();
         assert_eq!(tiles[&7].epoch, 2);
         assert_eq!(tiles[&7].worker_id, Some(43));
+        assert_eq!(tiles[&7].render_seconds, Some(0.25));
         assert_eq!(
             tiles[&7].state,
             TileRowState::Done {
@@ -625,6 +702,27 @@ mod tests {
             job_for_key(&conn, "k").unwrap(),
             Some((id, "h".to_string()))
         );
+        let tx = conn.transaction().unwrap();
+        set_provenance(&tx, id, "{\"a\":1}").unwrap();
+        set_provenance(&tx, id, "{\"b\":2}").unwrap();
+        tx.commit().unwrap();
+        assert_eq!(
+            load_jobs(&conn).unwrap()[0].provenance_json.as_deref(),
+            Some("{\"a\":1}"),
+            "the first provenance is kept"
+        );
+
+        // Settling a done job keeps who rendered each tile and how long it took.
+        let tx = conn.transaction().unwrap();
+        settle_done_job(&tx, id, 1, &stats, Some("digest")).unwrap();
+        tx.commit().unwrap();
+        assert!(load_tiles(&conn, id).unwrap().is_empty());
+        assert_eq!(
+            tile_times(&conn, id).unwrap(),
+            vec![(7, Some(43), Some(0.25))]
+        );
+
+        record_lease(&conn, id, 8, 1, 42).unwrap();
         delete_job(&conn, id).unwrap();
         assert!(load_tiles(&conn, id).unwrap().is_empty(), "tiles cascade");
     }

@@ -20,6 +20,7 @@ use spindle_common::protocol::{
     EventKind, JobInfo, JobSpec, JobState, LOST_WORKERS_LISTED_S, RECENT_TILE_ERRORS, SubmitJob,
     THROUGHPUT_WINDOW_S, TileError, WorkerInfo, WorkerState, format_labels,
 };
+use spindle_common::provenance::Provenance;
 use spindle_common::stats::RenderStats;
 use spindle_common::tile::{TileRect, split_centre_first};
 use tokio::time::Instant;
@@ -158,6 +159,8 @@ pub struct Job {
     /// The SHA-256 of the final EXR as written (hex), once the job is done; `None` for a job
     /// done before digests were recorded.
     pub image_sha256: Option<String>,
+    /// What the job's scene builds to, from the first tile that reported it.
+    pub provenance: Option<Arc<Provenance>>,
 }
 
 /// One tile of a job.
@@ -170,6 +173,8 @@ pub struct Tile {
     pub status: TileStatus,
     /// When the latest lease was granted by this process.
     pub leased_at: Option<Instant>,
+    /// A done tile's render seconds as its worker reported them.
+    pub render_seconds: Option<f64>,
 }
 
 /// Where a tile is. A done tile's result hash is in the database ([`db::done_hash`]).
@@ -186,6 +191,7 @@ impl Tile {
         worker: None,
         status: TileStatus::Pending,
         leased_at: None,
+        render_seconds: None,
     };
 }
 
@@ -229,6 +235,7 @@ impl Job {
             recent_errors: VecDeque::new(),
             assembling: false,
             image_sha256: None,
+            provenance: None,
         }
     }
 
@@ -288,6 +295,7 @@ impl Job {
             requires: self.requires.clone(),
             workers_eligible,
             stats: self.stats,
+            provenance: self.provenance.as_deref().cloned(),
         }
     }
 
@@ -336,6 +344,7 @@ impl Job {
                 }
                 (TileRowState::Done { stats, .. }, _) => {
                     tile.worker = stored.worker_id;
+                    tile.render_seconds = stored.render_seconds;
                     tile.status = TileStatus::Done;
                     self.tiles_done += 1;
                     self.stats.add(&stats);
@@ -414,6 +423,11 @@ impl Ledger {
             job.started_ms = row.started_ms;
             job.finished_ms = row.finished_ms;
             job.image_sha256 = row.image_sha256;
+            if let Some(json) = &row.provenance_json {
+                let provenance = serde_json::from_str(json)
+                    .map_err(|e| anyhow::anyhow!("job {}: stored provenance: {e}", row.id))?;
+                job.provenance = Some(Arc::new(provenance));
+            }
             if job.state.is_finished() {
                 job.release_tiles();
                 let (done, stats) = match row.totals {
@@ -545,6 +559,7 @@ impl Ledger {
             finished_ms: None,
             totals: None,
             image_sha256: None,
+            provenance_json: None,
         };
         let id = db::insert_job(&self.db, &row)?;
         let mut job = Job::new(id, Arc::new(new.spec), new.priority, now);
@@ -1074,6 +1089,7 @@ impl Ledger {
             if tile.status == TileStatus::Done {
                 tile.status = TileStatus::Pending;
                 tile.worker = None;
+                tile.render_seconds = None;
                 job.tiles_done -= 1;
             }
             tracing::error!(job = id, tile = index, %why, "stored tile damaged; rendering it again");

@@ -402,16 +402,20 @@ impl Ledger {
         if self.check_upload(id, index, upload)? == UploadPlan::Duplicate {
             return Ok((TileOutcome::Duplicate, false));
         }
+        // The first provenance a job receives is kept (the upload handler checked it).
+        let provenance = match (&self.job(id)?.provenance, &upload.provenance) {
+            (None, Some(p)) => Some(p.clone()),
+            _ => None,
+        };
         let tx = self.db.transaction()?;
-        db::record_done(
-            &tx,
-            id,
-            index,
-            upload.epoch,
-            upload.worker_id,
-            &upload.hash,
-            &upload.pixels.stats,
-        )?;
+        db::record_done(&tx, id, index, upload)?;
+        if let Some(p) = &provenance {
+            db::set_provenance(
+                &tx,
+                id,
+                &serde_json::to_string(p).map_err(anyhow::Error::from)?,
+            )?;
+        }
         tx.commit()?;
         let worker = match self.workers.get_mut(&upload.worker_id) {
             Some(w) => {
@@ -421,7 +425,11 @@ impl Ledger {
             None => String::new(),
         };
         let job = self.job_mut(id)?;
+        if let Some(p) = provenance {
+            job.provenance = Some(std::sync::Arc::new(p));
+        }
         job.tiles[index as usize].status = TileStatus::Done;
+        job.tiles[index as usize].render_seconds = upload.render_seconds;
         job.leased.remove(&index);
         job.tiles_done += 1;
         job.stats.add(&upload.pixels.stats);
@@ -435,6 +443,7 @@ impl Ledger {
             worker_id: upload.worker_id,
             worker,
             seconds,
+            render_seconds: upload.render_seconds,
         });
         tracing::debug!(
             job = id,

@@ -7,8 +7,9 @@ use axum::body::Body;
 use axum::http::{Method, Request, StatusCode, header};
 use http_body_util::BodyExt;
 use serde_json::json;
+use spindle_common::protocol::JobState;
 use spindle_server::dashboard;
-use support::{CLIENT, Coordinator, config, scene, upload_for};
+use support::{CLIENT, Coordinator, config, scene, test_provenance, upload_for};
 use tower::ServiceExt;
 
 async fn get(
@@ -52,6 +53,11 @@ async fn pages_are_served_with_security_headers_in_front_of_the_same_api() {
             "/dashboard/blake3.js",
             "text/javascript",
             "export function blake3Hex",
+        ),
+        (
+            "/dashboard/vendor/noble-hashes/blake3.js",
+            "text/javascript",
+            "export const blake3",
         ),
         ("/dashboard/docs.js", "text/javascript", "/v1/openapi.json"),
         ("/dashboard/style.css", "text/css", "@media"),
@@ -133,10 +139,30 @@ async fn the_tile_map_shows_queued_leased_failed_and_done_tiles() {
     assert_eq!(tile(&map, first.tile_index)["worker"], "alice", "{map}");
     assert_eq!(tile(&map, second.tile_index)["worker"], "bob", "{map}");
 
+    // A hostile worker's report is refused, naming the field, and stores nothing.
+    let mut hostile = upload_for(&first, alice);
+    hostile.provenance.as_mut().unwrap().plan = vec!["x".repeat(100_000)];
+    let (status, v) = c.upload(job.id, first.tile_index, &hostile).await;
+    assert_eq!(status, StatusCode::BAD_REQUEST, "{v}");
+    assert!(
+        v["error"].as_str().unwrap().contains("provenance.plan[0]"),
+        "{v}"
+    );
+    let mut hostile = upload_for(&first, alice);
+    hostile.render_seconds = Some(-1.0);
+    let (status, v) = c.upload(job.id, first.tile_index, &hostile).await;
+    assert_eq!(status, StatusCode::BAD_REQUEST, "{v}");
+    assert!(
+        v["error"].as_str().unwrap().starts_with("render_seconds"),
+        "{v}"
+    );
+    assert_eq!(c.job(job.id).await.provenance, None);
+
     let (status, ack) = c
         .upload(job.id, first.tile_index, &upload_for(&first, alice))
         .await;
     assert_eq!(status, StatusCode::OK, "{ack}");
+    assert_eq!(c.job(job.id).await.provenance, Some(test_provenance()));
     let (status, v) = c
         .worker(
             Method::POST,
@@ -147,8 +173,38 @@ async fn the_tile_map_shows_queued_leased_failed_and_done_tiles() {
     assert_eq!(status, StatusCode::NO_CONTENT, "{v}");
     let (_, map) = c.client(Method::GET, &uri, None).await;
     assert_eq!(tile(&map, first.tile_index)["state"], "done", "{map}");
+    assert_eq!(tile(&map, first.tile_index)["render_seconds"], 0.5, "{map}");
     assert_eq!(tile(&map, second.tile_index)["state"], "failed", "{map}");
     assert_eq!(tile(&map, second.tile_index)["failures"], 1, "{map}");
+    assert!(
+        tile(&map, second.tile_index)["render_seconds"].is_null(),
+        "{map}"
+    );
+
+    // Done: the job keeps no tiles in memory and no tile rows, but the map still says who
+    // rendered each tile and how long it took, and the EXR header carries the provenance.
+    let carol = c.register("carol").await; // bob failed it: he is not leased it again
+    let again = c.lease(carol).await.unwrap();
+    let mut last = upload_for(&again, carol);
+    last.render_seconds = Some(2.25);
+    let (status, ack) = c.upload(job.id, again.tile_index, &last).await;
+    assert_eq!(status, StatusCode::OK, "{ack}");
+    assert_eq!(c.wait_finished(job.id).await.state, JobState::Done);
+    let (_, map) = c.client(Method::GET, &uri, None).await;
+    assert_eq!(tile(&map, first.tile_index)["worker"], "alice", "{map}");
+    assert_eq!(tile(&map, first.tile_index)["render_seconds"], 0.5, "{map}");
+    assert_eq!(tile(&map, again.tile_index)["worker"], "carol", "{map}");
+    assert_eq!(
+        tile(&map, again.tile_index)["render_seconds"],
+        2.25,
+        "{map}"
+    );
+    let image =
+        spindle_common::image::read_exr(dir.path().join(format!("jobs/{}/image.exr", job.id)))
+            .unwrap();
+    for (name, value) in test_provenance().header_attributes() {
+        assert_eq!(image.attributes.get(&name), Some(&value), "{name}");
+    }
 
     let (status, _) = c.client(Method::GET, "/v1/jobs/999/tiles", None).await;
     assert_eq!(status, StatusCode::NOT_FOUND);

@@ -111,12 +111,14 @@ async fn the_stream_tells_job_states_tiles_and_workers_and_resumes_after_an_id()
             worker_id,
             worker,
             seconds,
+            render_seconds,
         } => {
             assert_eq!(
                 (*j, *tile, *worker_id, worker.as_str()),
                 (job.id, 0, w, "w1")
             );
             assert!(seconds.is_some_and(|s| s >= 0.0));
+            assert_eq!(*render_seconds, Some(0.5), "as the worker reported it");
         }
         other => panic!("{other:?}"),
     }

@@ -221,6 +221,8 @@ async fn upload(
         epoch: lease.epoch,
         hash: pixel_hash(pixels),
         pixels: pixels.clone(),
+        render_seconds: None,
+        provenance: None,
     };
     send(
         as_worker(
@@ -301,6 +303,8 @@ async fn a_stale_lease_epoch_is_refused_and_a_late_identical_result_accepted() {
             epoch: first.epoch,
             hash: pixel_hash(&right),
             pixels: right.clone(),
+            render_seconds: None,
+            provenance: None,
         })
         .send()
         .await
@@ -319,6 +323,8 @@ async fn a_stale_lease_epoch_is_refused_and_a_late_identical_result_accepted() {
             epoch: second.epoch,
             hash: pixel_hash(&right),
             pixels: different.clone(),
+            render_seconds: None,
+            provenance: None,
         };
         lying.hash = pixel_hash(&right);
         let (status, msg) = send(

@@ -308,10 +308,24 @@ async fn submit_wait_status_fetch_and_cancel_against_a_coordinator() {
         .await;
         assert!(out.status.success(), "{}", text(&out));
         let (desc, assets) = test_scene(24, 16, 1);
-        assert_bit_identical(
-            &read_exr(&exr).unwrap(),
-            &reference_image(&desc, &assets).unwrap(),
+        let fetched = read_exr(&exr).unwrap();
+        assert_bit_identical(&fetched, &reference_image(&desc, &assets).unwrap());
+        // The farm writes the header `render --workers 0` writes (provenance included), all
+        // but the scene file's path, which the coordinator never sees.
+        let here = dir.path().join("here.exr");
+        let out = spindle(
+            &["render", s, "--workers", "0", "-o", here.to_str().unwrap()],
+            None,
+        )
+        .await;
+        assert!(out.status.success(), "{}", text(&out));
+        let mut local = read_exr(&here).unwrap().attributes;
+        assert!(local.remove("spindle.scene").is_some());
+        assert!(
+            local.contains_key("spindle.single_scatter.plan"),
+            "{local:?}"
         );
+        assert_eq!(fetched.attributes, local);
 
         // One byte of the stored image changed: the coordinator refuses to serve it and fetch
         // fails with its message, leaving no file.

@@ -262,6 +262,30 @@ async fn drive(farm: &mut Farm, page: &Client, base: &str, shots: &Path) -> Resu
          return t.length === 4 && [...t].every(c => c.classList.contains('done'))",
     )
     .await?;
+    // Each done tile's hover text names its worker and its render time.
+    let titles = wait_for(
+        page,
+        "worker and render time on every done tile",
+        "const t = [...document.querySelectorAll('#tilemap .tile.done')];
+         return t.length === 4
+             && t.every(c => /worker w[12], rendered in \\d+\\.\\d\\d s/.test(c.title))
+             ? t.map(c => c.title) : null",
+    )
+    .await?;
+    eprintln!("tile titles: {titles}");
+    // The plan, as the workers built the scene, shown as text.
+    let plan = wait_for(
+        page,
+        "the job's plan",
+        "const p = document.getElementById('job-plan-text');
+         return p && p.checkVisibility() && p.textContent.includes('single scattering: objects[')
+             ? p.textContent : null",
+    )
+    .await?;
+    assert!(
+        plan.as_str().unwrap().contains("triangles"),
+        "plan text: {plan}"
+    );
     std::fs::create_dir_all(shots)?;
     std::fs::write(shots.join("desktop.png"), page.screenshot().await?)?;
 

@@ -11,11 +11,19 @@ use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
 
 use spindle_common::protocol::asset_hash;
+use spindle_common::provenance::Provenance;
 use tokio_util::sync::CancellationToken;
 
 use crate::backoff::{Backoff, RetryEnd, retry};
 use crate::client::{Client, ClientError, ErrorKind};
 use spindle_render::scene::{Assets, Scene};
+
+/// A job's built scene and its provenance (sent with every tile of the job).
+#[derive(Debug)]
+pub struct BuiltJob {
+    pub scene: Scene,
+    pub provenance: Provenance,
+}
 
 /// Jobs whose scenes are kept.
 const CAPACITY: usize = 2;
@@ -61,7 +69,7 @@ pub struct SceneCache {
     client: Client,
     pool: Arc<rayon::ThreadPool>,
     backoff: Backoff,
-    entries: VecDeque<(u64, Arc<Scene>)>,
+    entries: VecDeque<(u64, Arc<BuiltJob>)>,
     /// Number of scenes built (not served from the cache), for the log and tests.
     builds: u64,
 }
@@ -88,7 +96,7 @@ impl SceneCache {
         &mut self,
         job_id: u64,
         stop: &CancellationToken,
-    ) -> Result<Arc<Scene>, LoadError> {
+    ) -> Result<Arc<BuiltJob>, LoadError> {
         if let Some(i) = self.entries.iter().position(|(id, _)| *id == job_id) {
             // Move it to the back so the job in use is the last to be evicted.
             let entry = self.entries.remove(i).expect("index from position");
@@ -105,7 +113,7 @@ impl SceneCache {
         Ok(scene)
     }
 
-    async fn load(&self, job_id: u64, stop: &CancellationToken) -> Result<Scene, LoadError> {
+    async fn load(&self, job_id: u64, stop: &CancellationToken) -> Result<BuiltJob, LoadError> {
         let spec = retry(self.backoff, job_id, stop, "fetching the job spec", || {
             self.client.job_spec(job_id)
         })
@@ -117,11 +125,18 @@ impl SceneCache {
         let assets = self.download_assets(job_id, &spec.assets, stop).await?;
         let desc = spec.scene;
         let pool = self.pool.clone();
-        let built =
-            tokio::task::spawn_blocking(move || pool.install(|| Scene::build(&desc, &assets)))
-                .await
-                .map_err(|e| LoadError::Broken(format!("building the scene panicked: {e}")))?;
-        built.map_err(|e| LoadError::Unbuildable(format!("the scene does not build: {e}")))
+        let built = tokio::task::spawn_blocking(move || {
+            pool.install(|| {
+                let scene = Scene::build(&desc, &assets)?;
+                let provenance = spindle_render::provenance(&scene);
+                Ok(BuiltJob { scene, provenance })
+            })
+        })
+        .await
+        .map_err(|e| LoadError::Broken(format!("building the scene panicked: {e}")))?;
+        built.map_err(|e: spindle_render::SceneError| {
+            LoadError::Unbuildable(format!("the scene does not build: {e}"))
+        })
     }
 
     /// Downloads each distinct asset once and checks its hash; returns them keyed by path.
@@ -286,7 +301,8 @@ mod tests {
         let b = cache.get(1, &stop).await.expect("the scene is cached");
         assert!(Arc::ptr_eq(&a, &b));
         assert_eq!(cache.builds(), 1);
-        assert_eq!(a.triangle_count(), 1);
+        assert_eq!(a.scene.triangle_count(), 1);
+        assert_eq!(a.provenance, spindle_render::provenance(&a.scene));
     }
 
     #[tokio::test]

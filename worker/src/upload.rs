@@ -7,6 +7,7 @@
 //! result for a finished tile as a duplicate.
 
 use spindle_common::protocol::{TileOutcome, TileUpload, pixel_hash};
+use spindle_common::provenance::Provenance;
 use spindle_common::tile::TilePixels;
 use tokio_util::sync::CancellationToken;
 
@@ -29,21 +30,33 @@ pub enum Delivery {
     Abandoned,
 }
 
-/// Uploads `pixels` for `lease` until acknowledged.
+/// A rendered tile and what the worker reports with it.
+#[derive(Debug, Clone)]
+pub struct RenderedTile {
+    pub pixels: TilePixels,
+    /// Wall-clock seconds spent in `render_tile`.
+    pub seconds: f64,
+    /// The job's provenance, from the scene the tile was rendered with.
+    pub provenance: Provenance,
+}
+
+/// Uploads `rendered` for `lease` until acknowledged.
 pub async fn deliver(
     client: &Client,
     policy: Backoff,
     stop: &CancellationToken,
     worker_id: u64,
     lease: LeaseRef,
-    pixels: TilePixels,
+    rendered: RenderedTile,
 ) -> Delivery {
     let LeaseRef { job, tile, epoch } = lease;
     let body = TileUpload {
         worker_id,
         epoch,
-        hash: pixel_hash(&pixels),
-        pixels,
+        hash: pixel_hash(&rendered.pixels),
+        pixels: rendered.pixels,
+        render_seconds: Some(rendered.seconds),
+        provenance: Some(rendered.provenance),
     };
     let salt = worker_id ^ (job << 32) ^ u64::from(tile);
     match retry(policy, salt, stop, "uploading a tile", || {

@@ -35,7 +35,7 @@ use crate::backoff::{Attempts, RetryEnd, retry};
 use crate::cache::{LoadError, SceneCache};
 use crate::client::{Client, ClientError, ErrorKind};
 use crate::lease_ref::LeaseRef;
-use crate::upload::{Delivery, deliver};
+use crate::upload::{Delivery, RenderedTile, deliver};
 use spindle_render::render_tile;
 
 /// Shortest and longest pause between heartbeats.
@@ -81,7 +81,7 @@ pub struct Worker {
 
 /// How the work on one lease ended, before delivery.
 enum Rendered {
-    Pixels(Box<TilePixels>),
+    Pixels(Box<RenderedTile>),
     /// The tile cannot be rendered: report this reason (`deterministic`: no worker could).
     Failed {
         reason: String,
@@ -247,15 +247,13 @@ impl Worker {
             self.drain.clone(),
         ));
         let outcome = match self.render(job, lease.rect, &stop).await {
-            Ok(Rendered::Pixels(pixels)) => {
-                match self.deliver(worker_id, held, *pixels, &stop).await {
-                    Some(reason) => {
-                        self.report_failure(worker_id, held, reason, false, &stop)
-                            .await
-                    }
-                    None => Ok(()),
+            Ok(Rendered::Pixels(tile)) => match self.deliver(worker_id, held, *tile, &stop).await {
+                Some(reason) => {
+                    self.report_failure(worker_id, held, reason, false, &stop)
+                        .await
                 }
-            }
+                None => Ok(()),
+            },
             Ok(Rendered::Failed {
                 reason,
                 deterministic,
@@ -280,7 +278,7 @@ impl Worker {
         &mut self,
         worker_id: u64,
         held: LeaseRef,
-        pixels: TilePixels,
+        rendered: RenderedTile,
         stop: &CancellationToken,
     ) -> Option<String> {
         let LeaseRef { job, tile, epoch } = held;
@@ -290,7 +288,7 @@ impl Worker {
             stop,
             worker_id,
             held,
-            pixels,
+            rendered,
         )
         .await;
         tracing::info!(job, tile, epoch, outcome = ?delivery, "tile delivered");
@@ -365,7 +363,7 @@ impl Worker {
             Err(LoadError::Gone | LoadError::Interrupted) => return Ok(Rendered::Abandoned),
             Err(LoadError::Unauthorized(e)) => return Err(fatal(e, "loading a job")),
         };
-        let film = scene.film();
+        let film = scene.scene.film();
         if rect.width == 0
             || rect.height == 0
             || u64::from(rect.x) + u64::from(rect.width) > u64::from(film.width)
@@ -380,8 +378,13 @@ impl Worker {
             });
         }
         let pool = self.pool.clone();
-        let job = tokio::task::spawn_blocking(move || pool.install(|| render_tile(&scene, rect)));
-        let pixels = match job.await {
+        let built = scene.clone();
+        let job = tokio::task::spawn_blocking(move || {
+            let started = std::time::Instant::now();
+            let pixels = pool.install(|| render_tile(&built.scene, rect));
+            (pixels, started.elapsed().as_secs_f64())
+        });
+        let (pixels, seconds) = match job.await {
             Ok(pixels) => pixels,
             Err(e) => {
                 return Ok(Rendered::Failed {
@@ -401,7 +404,11 @@ impl Worker {
             // The lease was lost (or the deadline passed) while rendering.
             return Ok(Rendered::Abandoned);
         }
-        Ok(Rendered::Pixels(Box::new(pixels)))
+        Ok(Rendered::Pixels(Box::new(RenderedTile {
+            pixels,
+            seconds,
+            provenance: scene.provenance.clone(),
+        })))
     }
 }
 

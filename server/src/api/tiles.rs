@@ -2,9 +2,11 @@
 //!
 //! Read-only: it reports the ledger's view (queued, leased, done, failed) and the worker of
 //! each lease or result, so a page can draw the map once and then follow `tile_done` events.
+//! A done tile also carries its worker's name and the render seconds the worker reported.
 //! A finished job keeps no per-tile state in memory (retention): its rectangles are recomputed,
-//! every tile of a done job is done, and a cancelled or failed job's tiles are read from its
-//! stored rows.
+//! every tile of a done job is done (its workers and render times are read from the job's row,
+//! where they were kept when its tile rows were deleted), and a cancelled or failed job's tiles
+//! are read from its stored rows.
 
 use axum::Json;
 use axum::extract::State;
@@ -47,6 +49,24 @@ async fn job_tiles(
         } else {
             db::load_tiles(&ledger.db, id).map_err(Error::Internal)?
         };
+        // A done job keeps who rendered each tile and how long it took in its row.
+        let times: BTreeMap<u32, (Option<u64>, Option<f64>)> = if job.state == JobState::Done {
+            db::tile_times(&ledger.db, id)
+                .map_err(Error::Internal)?
+                .into_iter()
+                .map(|(index, worker, seconds)| (index, (worker, seconds)))
+                .collect()
+        } else {
+            stored
+                .iter()
+                .map(|(index, row)| (*index, (row.worker_id, row.render_seconds)))
+                .collect()
+        };
+        let name = |worker: Option<u64>| {
+            worker
+                .and_then(|w| ledger.workers.get(&w))
+                .map(|w| w.name.clone())
+        };
         let tiles = rects
             .into_iter()
             .enumerate()
@@ -57,6 +77,10 @@ async fn job_tiles(
                         stored.get(&index).map(|row| &row.state),
                         Some(TileRowState::Done { .. })
                     );
+                let (worker, render_seconds) = match times.get(&index) {
+                    Some(&(worker, seconds)) if done => (name(worker), seconds),
+                    _ => (None, None),
+                };
                 TileInfo {
                     index,
                     rect,
@@ -65,8 +89,9 @@ async fn job_tiles(
                     } else {
                         TileState::Queued
                     },
-                    worker: None,
+                    worker,
                     failures: 0,
+                    render_seconds,
                 }
             })
             .collect();
@@ -96,6 +121,7 @@ async fn job_tiles(
                 state,
                 worker,
                 failures,
+                render_seconds: tile.render_seconds.filter(|_| state == TileState::Done),
             }
         })
         .collect();

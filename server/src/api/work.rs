@@ -213,6 +213,7 @@ async fn upload_tile(
     // Parsing and hashing up to megabytes of floats is CPU work: off the runtime.
     let upload = tokio::task::spawn_blocking(move || {
         let upload: TileUpload = parse_json(&body)?;
+        upload.check_report().map_err(Error::BadRequest)?;
         let actual = pixel_hash(&upload.pixels);
         if actual != upload.hash {
             return Err(Error::BadRequest(format!(

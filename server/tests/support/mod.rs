@@ -19,6 +19,7 @@ use axum::http::{Method, Request, StatusCode};
 use http_body_util::BodyExt;
 use serde_json::{Value, json};
 use spindle_common::protocol::{JobInfo, Lease, TileUpload, pixel_hash};
+use spindle_common::provenance::Provenance;
 use spindle_common::stats::RenderStats;
 use spindle_common::tile::{TilePixels, TileRect};
 use spindle_server::{AppState, Config, app};
@@ -304,7 +305,21 @@ pub fn upload_for(lease: &Lease, worker: u64) -> TileUpload {
         epoch: lease.epoch,
         hash: pixel_hash(&pixels),
         pixels,
+        render_seconds: Some(0.5),
+        provenance: Some(test_provenance()),
     }
+}
+
+/// The provenance the fake workers of these tests report.
+pub fn test_provenance() -> Provenance {
+    Provenance::new(
+        "spindle-render test",
+        1,
+        320,
+        1,
+        &[],
+        &["objects[0]: interval (test)".into()],
+    )
 }
 
 /// A small valid scene without assets: `width` × `height`, one sphere.

@@ -340,6 +340,8 @@ async fn worker(shared: Arc<Shared>, i: usize) -> Result<()> {
             epoch: lease.epoch,
             hash: pixel_hash(&pixels),
             pixels,
+            render_seconds: None,
+            provenance: None,
         };
         let resp = client
             .put(format!(
