@@ -259,14 +259,10 @@ impl Hosts {
     /// Runs `spindle ARGS` in the coordinator's namespace with the client token; its stdout.
     fn spindle(&self, args: &[&str]) -> Result<String> {
         let out = in_namespace(&self.ns.coordinator, &binary("spindle"))
-            .arg("--server")
-            .arg(self.base())
-            .arg("--ca-cert")
-            .arg(&self.ca.ca_cert)
             .args(args)
             .env("SPINDLE_TOKEN", &self.client_token)
-            .env_remove("SPINDLE_SERVER")
-            .env_remove("SPINDLE_CA_CERT")
+            .env("SPINDLE_SERVER", self.base())
+            .env("SPINDLE_CA_CERT", &self.ca.ca_cert)
             .output()
             .context("running spindle")?;
         if !out.status.success() {
