@@ -21,7 +21,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, anyhow, bail};
 use spindle_common::image::Image;
-use spindle_common::protocol::{JobInfo, JobState, WorkerList};
+use spindle_common::protocol::{JobInfo, JobState, WorkerList, WorkerState};
 use spindle_tests::{
     Proc, TestCa, accepted_tiles, assert_bit_identical, binary, reference_image, test_scene,
 };
@@ -361,6 +361,9 @@ fn scenario() -> Result<()> {
             .find(|w| w.name == "worker-a")
             .and_then(|w| w.tile))
     })?;
+    // Paused, the job hands out no new lease, so it cannot finish while worker-a is away or
+    // before the coordinator is killed below, however fast this machine renders.
+    hosts.spindle(&["pause", &id.to_string()])?;
     hosts.ns.set_worker_link(0, false)?;
     let at_cut = hosts.job(id)?;
     let delivered_before_cut = accepted_tiles(&hosts.workers[0].log());
@@ -374,15 +377,31 @@ fn scenario() -> Result<()> {
         Ok(lapsed.then_some(()))
     })?;
     hosts.ns.set_worker_link(0, true)?;
+    let link_up_ms = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)?
+        .as_millis() as i64;
     if at_cut.tiles_done == at_cut.tiles_total {
         bail!("the job finished before the link was cut; make the scene slower");
     }
+    // Worker-a is heard from again over the restored link; then the job goes on.
+    hosts.wait("worker-a to be heard from again", |h| {
+        Ok(h.workers()?
+            .workers
+            .iter()
+            .any(|w| {
+                w.name == "worker-a" && w.last_seen_ms >= link_up_ms && w.state != WorkerState::Lost
+            })
+            .then_some(()))
+    })?;
+    hosts.spindle(&["resume", &id.to_string()])?;
     // It rejoins: a tile delivered and accepted after the link came back.
     hosts.wait("worker-a to deliver again", |h| {
         Ok((accepted_tiles(&h.workers[0].log()) > delivered_before_cut).then_some(()))
     })?;
 
-    // Kill the coordinator mid-job and start it again in its namespace.
+    // Kill the coordinator mid-job (paused, so it is still unfinished) and start it again in
+    // its namespace; the job is resumed there.
+    hosts.spindle(&["pause", &id.to_string()])?;
     let before_restart = hosts.job(id)?;
     if before_restart.state.is_finished() {
         bail!(
@@ -395,6 +414,7 @@ fn scenario() -> Result<()> {
     }
     std::thread::sleep(Duration::from_millis(500));
     hosts.start_server()?;
+    hosts.spindle(&["resume", &id.to_string()])?;
 
     let done = hosts.wait("the job to finish", |h| {
         let job = h.job(id)?;
