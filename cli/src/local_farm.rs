@@ -54,8 +54,8 @@ where
         .prefix("spindle-farm-")
         .tempdir()
         .context("creating the local farm's data directory")?;
-    let client_token = random_hex();
-    let worker_token = random_hex();
+    let client_token = random_hex()?;
+    let worker_token = random_hex()?;
     let mut config = spindle_server::Config::new(data.path());
     config.client_token = Some(client_token.clone());
     config.worker_token = Some(worker_token.clone());

@@ -1,34 +1,13 @@
 //! Random secrets for the `spindle` command: idempotency keys, and the tokens of the local
-//! farm's coordinator.
-//!
-//! The standard library's `RandomState` is seeded from the operating system's random source
-//! once per process and varies per instance; hashing a counter, the time and the process id
-//! through fresh instances gives unpredictable 256-bit values without another dependency.
-//! blake3 mixes the parts into uniform hex.
-
-use std::collections::hash_map::RandomState;
-use std::hash::{BuildHasher, Hasher};
-use std::sync::atomic::{AtomicU64, Ordering};
-
-static COUNTER: AtomicU64 = AtomicU64::new(0);
+//! farm's coordinator: 256 bits from the operating system (`getrandom`, as the coordinator's
+//! worker secrets), in lowercase hex.
 
 /// 64 random lowercase hex digits.
-pub fn random_hex() -> String {
-    let mut hasher = blake3::Hasher::new();
-    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_nanos());
-    for i in 0..4u64 {
-        let mut h = RandomState::new().build_hasher();
-        h.write_u64(n);
-        h.write_u64(i);
-        h.write_u128(nanos);
-        h.write_u32(std::process::id());
-        hasher.update(&h.finish().to_le_bytes());
-    }
-    hasher.update(&nanos.to_le_bytes());
-    hasher.finalize().to_hex().to_string()
+pub fn random_hex() -> anyhow::Result<String> {
+    let mut bytes = [0u8; 32];
+    getrandom::fill(&mut bytes)
+        .map_err(|e| anyhow::anyhow!("the operating system gave no random bytes: {e}"))?;
+    Ok(bytes.iter().map(|b| format!("{b:02x}")).collect())
 }
 
 #[cfg(test)]
@@ -37,7 +16,7 @@ mod tests {
 
     #[test]
     fn secrets_are_hex_and_distinct() {
-        let a: Vec<String> = (0..100).map(|_| random_hex()).collect();
+        let a: Vec<String> = (0..100).map(|_| random_hex().unwrap()).collect();
         for s in &a {
             assert_eq!(s.len(), 64);
             assert!(

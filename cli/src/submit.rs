@@ -168,7 +168,7 @@ pub async fn submit_scene_file(
         name: options.name.clone(),
         submitter: options.submitter.clone(),
     };
-    let key = random_hex();
+    let key = random_hex()?;
     api.submit(&job, &key)
         .await
         .with_context(|| format!("submitting {}", scene_path.display()))
