@@ -152,9 +152,7 @@ impl Api {
 
     /// `PATCH /v1/jobs/{id}` with a new priority.
     pub async fn set_priority(&self, id: u64, priority: i32) -> Result<JobInfo> {
-        let body = JobPatch {
-            priority: Some(priority),
-        };
+        let body = JobPatch { priority };
         self.json(|| {
             self.http
                 .patch(self.url(&format!("/v1/jobs/{id}")))

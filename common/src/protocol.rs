@@ -86,6 +86,7 @@ pub struct ApiError {
 #[serde(deny_unknown_fields)]
 pub struct MissingAssetsRequest {
     /// blake3 hashes, lowercase hex.
+    #[schema(value_type = Vec<Blake3Hash>)]
     pub hashes: Vec<String>,
 }
 
@@ -93,6 +94,7 @@ pub struct MissingAssetsRequest {
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct MissingAssetsResponse {
+    #[schema(value_type = Vec<Blake3Hash>)]
     pub missing: Vec<String>,
 }
 
@@ -100,6 +102,7 @@ pub struct MissingAssetsResponse {
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct AssetStored {
+    #[schema(value_type = Blake3Hash)]
     pub hash: String,
     /// Size of the stored asset in bytes.
     pub bytes: u64,
@@ -110,13 +113,14 @@ pub struct AssetStored {
 #[serde(deny_unknown_fields)]
 pub struct SubmitJob {
     /// The scene, as in a scene file.
-    #[schema(value_type = Object)]
     pub scene: SceneDescription,
     /// For each `obj` shape's `path` in the scene, the blake3 hash of the uploaded file.
     #[serde(default)]
+    #[schema(value_type = BTreeMap<String, Blake3Hash>)]
     pub assets: BTreeMap<String, String>,
     /// Tile edge in pixels (default 32).
     #[serde(default = "default_tile_size")]
+    #[schema(minimum = 4, maximum = 256)]
     pub tile_size: u32,
     /// Higher runs first; equal priorities run in submission order.
     #[serde(default)]
@@ -124,24 +128,35 @@ pub struct SubmitJob {
     /// Worker labels the job needs (`{"pool": "night"}`): it is leased only to workers whose
     /// labels include every one of these. Checked with [`check_labels`].
     #[serde(default)]
+    #[schema(value_type = Labels)]
     pub requires: BTreeMap<String, String>,
     /// A name for people (`spindle submit` sends the scene file's stem); `job-<id>` when absent.
-    /// 1 to [`MAX_NAME_LEN`] bytes, no control characters.
+    /// 1 to [`MAX_NAME_LEN`] characters, no control characters.
     #[serde(default)]
+    #[schema(
+        min_length = 1,
+        max_length = 128,
+        pattern = "^[^\\x00-\\x1f\\x7f-\\x9f]*$"
+    )]
     pub name: Option<String>,
     /// Who submitted the job (`spindle submit` sends `$USER`); a label, not an identity.
-    /// 1 to [`MAX_NAME_LEN`] bytes, no control characters.
+    /// 1 to [`MAX_NAME_LEN`] characters, no control characters.
     #[serde(default)]
+    #[schema(
+        min_length = 1,
+        max_length = 128,
+        pattern = "^[^\\x00-\\x1f\\x7f-\\x9f]*$"
+    )]
     pub submitter: Option<String>,
 }
 
-/// Longest job name or submitter, in bytes.
+/// Longest job name or submitter, in characters.
 pub const MAX_NAME_LEN: usize = 128;
 
-/// Checks a job name or submitter: 1 to [`MAX_NAME_LEN`] bytes, no control characters.
+/// Checks a job name or submitter: 1 to [`MAX_NAME_LEN`] characters, no control characters.
 pub fn check_name(field: &str, value: &str) -> Result<(), String> {
-    if value.is_empty() || value.len() > MAX_NAME_LEN {
-        return Err(format!("{field}: must be 1 to {MAX_NAME_LEN} bytes"));
+    if value.is_empty() || value.chars().count() > MAX_NAME_LEN {
+        return Err(format!("{field}: must be 1 to {MAX_NAME_LEN} characters"));
     }
     if value.chars().any(char::is_control) {
         return Err(format!("{field}: must not contain control characters"));
@@ -150,11 +165,11 @@ pub fn check_name(field: &str, value: &str) -> Result<(), String> {
 }
 
 /// A change to a submitted job (`PATCH /v1/jobs/{id}`).
-#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct JobPatch {
     /// The new priority: higher runs first.
-    pub priority: Option<i32>,
+    pub priority: i32,
 }
 
 /// Jobs a `GET /v1/jobs` page holds when the query does not say.
@@ -251,6 +266,7 @@ pub struct JobInfo {
     /// from within one lease TTL): 0 means nobody will render a queued job until one connects.
     pub workers_live: u32,
     /// The worker labels the job needs ([`SubmitJob::requires`]).
+    #[schema(value_type = Labels)]
     pub requires: BTreeMap<String, String>,
     /// Connected workers that may take this job's tiles now: not draining, and labelled with
     /// every one of `requires`. With `workers_live > 0` and this 0, the job waits for an
@@ -335,17 +351,43 @@ pub struct JobList {
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RegisterWorker {
-    /// A human-readable name (host name, …), for logs.
+    /// A human-readable name (host name, …), for logs: 1 to 200 characters.
+    #[schema(min_length = 1, max_length = 200)]
     pub name: String,
-    /// Render threads the worker runs.
+    /// Render threads the worker runs: 1 to [`MAX_WORKER_THREADS`].
+    #[schema(minimum = 1, maximum = 65536)]
     pub threads: u32,
-    /// The worker's version (`spindle-worker --version`).
+    /// The worker's version (`spindle-worker --version`): at most 64 characters.
     #[serde(default)]
+    #[schema(max_length = 64)]
     pub version: String,
     /// `key=value` labels (`--label pool=night`) that jobs can require; see [`check_labels`].
     #[serde(default)]
+    #[schema(value_type = Labels)]
     pub labels: BTreeMap<String, String>,
 }
+
+impl RegisterWorker {
+    /// Checks the fields the document bounds; the error names the field.
+    pub fn check(&self) -> Result<(), String> {
+        if self.name.is_empty() || self.name.chars().count() > 200 {
+            return Err("name: must be 1 to 200 characters".into());
+        }
+        if !(1..=MAX_WORKER_THREADS).contains(&self.threads) {
+            return Err(format!(
+                "threads: must be 1 to {MAX_WORKER_THREADS}, got {}",
+                self.threads
+            ));
+        }
+        if self.version.chars().count() > 64 {
+            return Err("version: must be at most 64 characters".into());
+        }
+        check_labels("labels", &self.labels)
+    }
+}
+
+/// Most render threads a worker may report.
+pub const MAX_WORKER_THREADS: u32 = 65536;
 
 /// Most labels a worker may carry or a job may require.
 pub const MAX_LABELS: usize = 16;
@@ -366,6 +408,36 @@ fn check_label_part(what: &str, s: &str) -> Result<(), String> {
         ));
     }
     Ok(())
+}
+
+/// The API document's shape of a set of labels ([`check_labels`]): at most [`MAX_LABELS`]
+/// entries, keys and values of 1 to [`MAX_LABEL_LEN`] letters, digits, `_`, `-`, `.`.
+pub struct Labels;
+
+impl utoipa::PartialSchema for Labels {
+    fn schema() -> utoipa::openapi::RefOr<utoipa::openapi::schema::Schema> {
+        use utoipa::openapi::schema::{ObjectBuilder, Type};
+        let part = || {
+            ObjectBuilder::new()
+                .schema_type(Type::String)
+                .pattern(Some(format!("^[A-Za-z0-9_.-]{{1,{MAX_LABEL_LEN}}}$")))
+        };
+        ObjectBuilder::new()
+            .schema_type(Type::Object)
+            .property_names(Some(part()))
+            .additional_properties(Some(part()))
+            .max_properties(Some(MAX_LABELS))
+            .description(Some(
+                "key=value labels: letters, digits, _ - . (1 to 63 each)",
+            ))
+            .into()
+    }
+}
+
+impl ToSchema for Labels {
+    fn name() -> std::borrow::Cow<'static, str> {
+        "Labels".into()
+    }
 }
 
 /// Checks a set of labels (a worker's, or a job's requirements); `field` names them in the
@@ -437,6 +509,7 @@ pub struct WorkerInfo {
     pub name: String,
     pub version: String,
     pub threads: u32,
+    #[schema(value_type = Labels)]
     pub labels: BTreeMap<String, String>,
     pub state: WorkerState,
     /// The job and tile of a lease the worker holds (the lowest, if it holds several).
@@ -475,6 +548,43 @@ pub struct FarmEvent {
     pub at_ms: i64,
     #[serde(flatten)]
     pub kind: EventKind,
+}
+
+/// The API document's shape of one Server-Sent Event of `GET /v1/events`, as a client parses
+/// it: `id` and `event` as text, `data` a [`FarmEvent`] as JSON.
+pub struct SseFarmEvent;
+
+impl utoipa::PartialSchema for SseFarmEvent {
+    fn schema() -> utoipa::openapi::RefOr<utoipa::openapi::schema::Schema> {
+        use utoipa::openapi::schema::{ObjectBuilder, Type};
+        let text = |description: &str| {
+            ObjectBuilder::new()
+                .schema_type(Type::String)
+                .description(Some(description))
+        };
+        ObjectBuilder::new()
+            .schema_type(Type::Object)
+            .property(
+                "id",
+                text("the event's `id`").pattern(Some("^[0-9]{1,19}$")),
+            )
+            .property("event", text("the event's `type`"))
+            .property(
+                "data",
+                text("the FarmEvent, as JSON").content_media_type("application/json"),
+            )
+            .property("retry", ObjectBuilder::new().schema_type(Type::Integer))
+            .required("id")
+            .required("event")
+            .required("data")
+            .into()
+    }
+}
+
+impl ToSchema for SseFarmEvent {
+    fn name() -> std::borrow::Cow<'static, str> {
+        "SseFarmEvent".into()
+    }
 }
 
 /// What a [`FarmEvent`] says.
@@ -578,9 +688,9 @@ pub struct Lease {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct JobSpec {
-    #[schema(value_type = Object)]
     pub scene: SceneDescription,
     /// `obj` path in the scene → blake3 hash; fetch each with `GET /v1/assets/{hash}`.
+    #[schema(value_type = BTreeMap<String, Blake3Hash>)]
     pub assets: BTreeMap<String, String>,
     pub tile_size: u32,
 }
@@ -610,6 +720,7 @@ pub struct TileUpload {
     pub worker_id: u64,
     pub epoch: u64,
     /// [`pixel_hash`] of `pixels`; the coordinator recomputes it (400 on mismatch).
+    #[schema(value_type = Blake3Hash)]
     pub hash: String,
     pub pixels: TilePixels,
     /// Wall-clock seconds the worker spent rendering the tile (finite, 0 to
@@ -702,6 +813,12 @@ pub fn pixel_hash(pixels: &TilePixels) -> String {
 pub fn asset_hash(bytes: &[u8]) -> String {
     blake3::hash(bytes).to_hex().to_string()
 }
+
+/// The API document's name for a blake3 hash in lowercase hex (the Rust fields are `String`s
+/// checked with [`is_hash`]).
+#[derive(ToSchema)]
+#[schema(pattern = "^[0-9a-f]{64}$")]
+pub struct Blake3Hash(#[allow(dead_code)] String);
 
 /// Is `s` a well-formed hash (64 lowercase hex digits)?
 pub fn is_hash(s: &str) -> bool {

@@ -7,6 +7,7 @@
 //! `scenes/README.md` documents every field.
 
 use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
 
 pub use crate::validate::SceneError;
 
@@ -15,8 +16,74 @@ pub type Rgb = [f64; 3];
 /// A point or direction in scene units.
 pub type Vec3 = [f64; 3];
 
+/// The API document's shapes of the scene's triples. `Rgb` and `Vec3` are aliases of `[f64; 3]`,
+/// which the schema derive cannot name; a field names one of these instead, so the document
+/// states the per-component bounds that [`crate::validate`] checks (bounds that involve the
+/// whole triple, such as a non-zero direction, are the validator's alone).
+mod triple_schemas {
+    use std::borrow::Cow;
+
+    use utoipa::openapi::RefOr;
+    use utoipa::openapi::schema::{ArrayBuilder, ObjectBuilder, Schema, Type};
+
+    use crate::validate::MAX_COORDINATE;
+
+    fn triple(description: &str, minimum: Option<f64>, maximum: Option<f64>) -> RefOr<Schema> {
+        let component = ObjectBuilder::new()
+            .schema_type(Type::Number)
+            .minimum(minimum)
+            .maximum(maximum);
+        ArrayBuilder::new()
+            .items(component)
+            .min_items(Some(3))
+            .max_items(Some(3))
+            .description(Some(description))
+            .into()
+    }
+
+    macro_rules! triple_schema {
+        ($ty:ident, $name:literal, $description:literal, $min:expr, $max:expr) => {
+            pub struct $ty;
+            impl utoipa::PartialSchema for $ty {
+                fn schema() -> RefOr<Schema> {
+                    triple($description, $min, $max)
+                }
+            }
+            impl utoipa::ToSchema for $ty {
+                fn name() -> Cow<'static, str> {
+                    Cow::Borrowed($name)
+                }
+            }
+        };
+    }
+
+    triple_schema!(
+        PointSchema,
+        "Point",
+        "A position [x, y, z]: each coordinate within the scene's extent.",
+        Some(-MAX_COORDINATE),
+        Some(MAX_COORDINATE)
+    );
+    triple_schema!(VectorSchema, "Vector", "[x, y, z], finite.", None, None);
+    triple_schema!(
+        ColorSchema,
+        "Color",
+        "Linear RGB [r, g, b], each >= 0.",
+        Some(0.0),
+        None
+    );
+    triple_schema!(
+        UnitColorSchema,
+        "UnitColor",
+        "Linear RGB [r, g, b], each in [0, 1].",
+        Some(0.0),
+        Some(1.0)
+    );
+}
+use triple_schemas::{ColorSchema, PointSchema, UnitColorSchema, VectorSchema};
+
 /// A whole scene.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SceneDescription {
     pub camera: Camera,
@@ -27,20 +94,25 @@ pub struct SceneDescription {
     pub objects: Vec<Object>,
     /// Constant radiance seen where a camera path leaves the scene.
     #[serde(default)]
+    #[schema(value_type = ColorSchema)]
     pub background: Rgb,
     #[serde(default)]
     pub integrator: Integrator,
 }
 
 /// Pinhole camera. Image x goes right, y goes down (row 0 at the top).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Camera {
+    #[schema(value_type = PointSchema)]
     pub position: Vec3,
+    #[schema(value_type = PointSchema)]
     pub look_at: Vec3,
     #[serde(default = "default_up")]
+    #[schema(value_type = VectorSchema)]
     pub up: Vec3,
     /// Full vertical field of view, degrees.
+    #[schema(exclusive_minimum = 0.0, exclusive_maximum = 180.0)]
     pub fov_y: f64,
 }
 
@@ -49,13 +121,16 @@ fn default_up() -> Vec3 {
 }
 
 /// Image size and sampling.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Film {
+    #[schema(minimum = 1, maximum = 16384)]
     pub width: u32,
+    #[schema(minimum = 1, maximum = 16384)]
     pub height: u32,
     /// Camera samples per pixel; with `target_error`, the most a pixel may take.
     #[serde(default = "default_spp")]
+    #[schema(minimum = 1, maximum = 65536)]
     pub spp: u32,
     /// Seed of the counter-based random numbers; the same seed gives the same bits.
     #[serde(default)]
@@ -64,6 +139,7 @@ pub struct Film {
     /// standard error of its luminance is at most this fraction of its luminance (or is 0), and
     /// at `spp` samples in any case. `None`: every pixel takes `spp` samples.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(exclusive_minimum = 0.0, exclusive_maximum = 1.0)]
     pub target_error: Option<f64>,
 }
 
@@ -77,39 +153,54 @@ fn default_spp() -> u32 {
 }
 
 /// A light source. Lights are outside every medium.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Light {
     /// Isotropic point light; `intensity` in W/sr.
-    Point { position: Vec3, intensity: Rgb },
+    Point {
+        #[schema(value_type = PointSchema)]
+        position: Vec3,
+        #[schema(value_type = ColorSchema)]
+        intensity: Rgb,
+    },
     /// Spherical area light with uniform emitted radiance, sampled by area.
     Sphere {
+        #[schema(value_type = PointSchema)]
         center: Vec3,
+        #[schema(minimum = 1e-6, maximum = 1e6)]
         radius: f64,
+        #[schema(value_type = ColorSchema)]
         radiance: Rgb,
     },
     /// A distant light (the sun): rays travel along `direction` (need not be unit length) and
     /// give `irradiance` (W/m²) on a surface facing them. `angular_diameter` (degrees, default 0:
     /// parallel rays) spreads them over a disk of uniform radiance, seen by the camera.
     Directional {
+        #[schema(value_type = VectorSchema)]
         direction: Vec3,
+        #[schema(value_type = ColorSchema)]
         irradiance: Rgb,
         #[serde(default)]
+        #[schema(minimum = 0.0, maximum = 30.0)]
         angular_diameter: f64,
     },
     /// A one-sided rectangular area light of uniform `radiance`: the rectangle with corners
     /// `corner`, `corner + edge_u`, `corner + edge_u + edge_v`, `corner + edge_v` (the two edges
     /// perpendicular), emitting toward `edge_u × edge_v` only.
     Quad {
+        #[schema(value_type = PointSchema)]
         corner: Vec3,
+        #[schema(value_type = VectorSchema)]
         edge_u: Vec3,
+        #[schema(value_type = VectorSchema)]
         edge_v: Vec3,
+        #[schema(value_type = ColorSchema)]
         radiance: Rgb,
     },
 }
 
 /// One object: a shape, placed by a transform, made of a material.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Object {
     pub shape: Shape,
@@ -119,7 +210,7 @@ pub struct Object {
 }
 
 /// A triangle-mesh shape.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Shape {
     /// A Wavefront OBJ file; `path` is relative to the scene file. In a farm job the path is
@@ -129,16 +220,26 @@ pub enum Shape {
     Obj {
         path: String,
         #[serde(default, skip_serializing_if = "Option::is_none")]
+        #[schema(minimum = 0.0, maximum = 180.0)]
         crease_angle: Option<f64>,
     },
     /// Unit-radius icosahedron subdivided `subdivisions` times (20·4^s triangles), scaled to `radius`.
-    Icosphere { radius: f64, subdivisions: u32 },
+    Icosphere {
+        #[schema(minimum = 1e-6, maximum = 1e6)]
+        radius: f64,
+        #[schema(maximum = 10)]
+        subdivisions: u32,
+    },
     /// Icosphere displaced radially by a smooth function:
     /// `r = radius · (1 + amplitude · noise(frequency · p, seed))`, with noise in [-1, 1].
     BumpySphere {
+        #[schema(minimum = 1e-6, maximum = 1e6)]
         radius: f64,
+        #[schema(maximum = 10)]
         subdivisions: u32,
+        #[schema(minimum = 0.0, exclusive_maximum = 1.0)]
         amplitude: f64,
+        #[schema(minimum = 0.0)]
         frequency: f64,
         #[serde(default)]
         seed: u64,
@@ -146,14 +247,17 @@ pub enum Shape {
 }
 
 /// `scale`, then `rotate_deg` about x, y, z in that order, then `translate`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Transform {
     #[serde(default = "default_scale")]
+    #[schema(value_type = VectorSchema)]
     pub scale: Vec3,
     #[serde(default)]
+    #[schema(value_type = VectorSchema)]
     pub rotate_deg: Vec3,
     #[serde(default)]
+    #[schema(value_type = PointSchema)]
     pub translate: Vec3,
 }
 
@@ -172,47 +276,61 @@ impl Default for Transform {
 }
 
 /// What an object is made of.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Material {
     /// A smooth refractive interface of relative index `eta` (medium over air, >= 1) enclosing
     /// a homogeneous participating medium.
-    Dielectric { eta: f64, medium: Medium },
+    Dielectric {
+        #[schema(minimum = 1.0, maximum = 10.0)]
+        eta: f64,
+        medium: Medium,
+    },
     /// An opaque Lambertian surface (a floor).
-    Diffuse { reflectance: Rgb },
+    Diffuse {
+        #[schema(value_type = UnitColorSchema)]
+        reflectance: Rgb,
+    },
 }
 
 /// A homogeneous participating medium.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Medium {
     /// Extinction coefficient per scene unit.
+    #[schema(value_type = ColorSchema)]
     pub sigma_t: Rgb,
     /// Single-scattering albedo σ_s/σ_t in [0, 1].
+    #[schema(value_type = UnitColorSchema)]
     pub albedo: Rgb,
     #[serde(default)]
     pub phase: Phase,
 }
 
 /// Phase function of a medium.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default, ToSchema)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Phase {
     #[default]
     Isotropic,
     /// Henyey–Greenstein with mean cosine `g` in (-1, 1).
-    Hg { g: f64 },
+    Hg {
+        #[schema(exclusive_minimum = -1.0, exclusive_maximum = 1.0)]
+        g: f64,
+    },
 }
 
 /// The integrator: depth limits and the single-scattering method.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Integrator {
     /// Specular bounces followed along a camera path.
     #[serde(default = "default_max_depth")]
+    #[schema(maximum = 64)]
     pub max_depth: u32,
     /// Internal reflections followed inside a medium (0 = only the first segment inside).
     #[serde(default = "default_internal_reflections")]
+    #[schema(maximum = 64)]
     pub internal_reflections: u32,
     #[serde(default)]
     pub single_scatter: SingleScatter,
@@ -236,28 +354,32 @@ impl Default for Integrator {
 }
 
 /// Which single-scattering estimator runs, and its accuracy settings.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SingleScatter {
     #[serde(default)]
     pub method: ScatterMethod,
     /// Interval method: samples per triangle interval (midpoint rule).
     #[serde(default = "default_k")]
+    #[schema(minimum = 1, maximum = 65536)]
     pub k: u32,
     /// Interval method: jitter the K samples (unbiased) instead of the midpoint rule.
     #[serde(default)]
     pub jitter: bool,
     /// Newton stopping tolerance on ‖f‖ for sample points (relative, dimensionless).
     #[serde(default = "default_newton_tolerance")]
+    #[schema(exclusive_minimum = 0.0, maximum = 0.01)]
     pub newton_tolerance: f64,
     /// Point sampling (and the reference): stratified samples along each camera segment.
     #[serde(default = "default_samples_per_segment")]
+    #[schema(minimum = 1, maximum = 1048576)]
     pub samples_per_segment: u32,
     /// Pruning stages; each can be switched off for measurement.
     #[serde(default)]
     pub pruning: Pruning,
     /// `auto` only: allowed relative error when choosing a cheaper model (e.g. straight line).
     #[serde(default = "default_auto_tolerance")]
+    #[schema(minimum = 0.0, exclusive_maximum = 1.0)]
     pub auto_tolerance: f64,
 }
 
@@ -289,7 +411,7 @@ impl Default for SingleScatter {
 }
 
 /// The single-scattering estimators.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, ToSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum ScatterMethod {
     /// Choose the cheapest exact model the scene allows (and say which in the log and EXR header).
@@ -308,7 +430,7 @@ pub enum ScatterMethod {
 }
 
 /// Pruning stages of the hierarchical descent ([H15] §3.2.4).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Pruning {
     /// The spindle test on BVH nodes.

@@ -55,7 +55,27 @@ impl<S: Send + Sync, T: DeserializeOwned> FromRequest<S> for JsonBody<T> {
 }
 
 /// Parses JSON, naming the path of the first bad value; trailing text is an error.
+///
+/// A number written with a fraction or exponent that is a whole number (`679.0`, `1e3`) is
+/// accepted where an integer is expected, as JSON Schema's `integer` accepts it: when the
+/// direct parse fails, the body is read again with such numbers made integers, and the first
+/// parse's error stands if that fails too (so the extra work is only done for bodies that
+/// would be refused otherwise).
 pub fn parse_json<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, Error> {
+    let direct = parse_json_exact(bytes);
+    if direct.is_ok() {
+        return direct;
+    }
+    let Ok(mut value) = serde_json::from_slice::<serde_json::Value>(bytes) else {
+        return direct;
+    };
+    if !integral_floats_to_integers(&mut value) {
+        return direct;
+    }
+    serde_path_to_error::deserialize(value).or(direct)
+}
+
+fn parse_json_exact<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, Error> {
     let mut de = serde_json::Deserializer::from_slice(bytes);
     let value = serde_path_to_error::deserialize(&mut de).map_err(|e| {
         let path = e.path().to_string();
@@ -70,6 +90,43 @@ pub fn parse_json<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, Error> {
     de.end()
         .map_err(|e| Error::BadRequest(format!("body: {e}")))?;
     Ok(value)
+}
+
+/// Replaces every float that is exactly a whole number in the range of `i64` or `u64` (but not
+/// `-0.0`, whose sign a float field keeps) by that integer; says whether any was replaced. An
+/// `f64` field reads the integer back as the same value.
+fn integral_floats_to_integers(value: &mut serde_json::Value) -> bool {
+    use serde_json::Value;
+    match value {
+        Value::Number(n) if n.is_f64() => {
+            let f = n.as_f64().unwrap_or(f64::NAN);
+            let whole = f.fract() == 0.0 && !(f == 0.0 && f.is_sign_negative());
+            // 2^63 and 2^64: the first floats beyond i64 and u64.
+            let integer = if !whole {
+                None
+            } else if (-9.223_372_036_854_776e18..9.223_372_036_854_776e18).contains(&f) {
+                Some(serde_json::Number::from(f as i64))
+            } else if (0.0..1.844_674_407_370_955_2e19).contains(&f) {
+                Some(serde_json::Number::from(f as u64))
+            } else {
+                None
+            };
+            match integer {
+                Some(i) => {
+                    *n = i;
+                    true
+                }
+                None => false,
+            }
+        }
+        Value::Array(items) => items
+            .iter_mut()
+            .fold(false, |any, v| integral_floats_to_integers(v) | any),
+        Value::Object(fields) => fields
+            .values_mut()
+            .fold(false, |any, v| integral_floats_to_integers(v) | any),
+        _ => false,
+    }
 }
 
 /// Path parameters of type `T`.
@@ -112,5 +169,34 @@ mod tests {
         assert!(m.starts_with("body: trailing characters"), "{m}");
         let m = message(parse_json(b"{not json"));
         assert!(m.starts_with("body: key must be a string"), "{m}");
+    }
+
+    #[test]
+    fn whole_numbers_written_as_floats_are_integers() {
+        // JSON Schema's `integer` accepts 679.0 and 1e3; so does the coordinator.
+        let hb = parse_json::<Heartbeat>(br#"{"worker_id":679.0,"epoch":1e3}"#).unwrap();
+        assert_eq!((hb.worker_id, hb.epoch), (679, 1000));
+        let big = parse_json::<Heartbeat>(br#"{"worker_id":1e19,"epoch":0}"#);
+        assert_eq!(big.unwrap().worker_id, 10_000_000_000_000_000_000);
+        // Not whole, negative for a u64, beyond u64: the first parse's error stands.
+        let m = message(parse_json(br#"{"worker_id":679.5,"epoch":1}"#));
+        assert!(
+            m.starts_with("worker_id: invalid type: floating point `679.5`"),
+            "{m}"
+        );
+        let m = message(parse_json(br#"{"worker_id":-1.0,"epoch":1}"#));
+        assert!(m.starts_with("worker_id: invalid"), "{m}");
+        let m = message(parse_json(br#"{"worker_id":1e20,"epoch":1}"#));
+        assert!(
+            m.starts_with("worker_id: invalid type: floating point"),
+            "{m}"
+        );
+        // Beside an integer read again, a float field keeps its value, and -0.0 its sign.
+        let (n, floats): (u64, [f64; 4]) = parse_json(b"[5.0, [3.0, -0.0, 2.5, 1e300]]").unwrap();
+        assert_eq!(n, 5);
+        assert_eq!(
+            floats.map(f64::to_bits),
+            [3.0f64, -0.0, 2.5, 1e300].map(f64::to_bits)
+        );
     }
 }

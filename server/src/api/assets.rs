@@ -60,7 +60,7 @@ async fn missing_assets(
 
 /// Uploads an asset; the body's blake3 hash must be `hash`.
 #[utoipa::path(put, path = "/v1/assets/{hash}",
-    params(("hash" = String, Path, description = "blake3 of the body, lowercase hex")),
+    params(("hash" = String, Path, pattern = "^[0-9a-f]{64}$", description = "blake3 of the body, lowercase hex")),
     request_body(content = Vec<u8>, content_type = "application/octet-stream"),
     responses((status = 200, body = AssetStored), (status = 400, body = ApiError),
               (status = 413, body = ApiError)))]
@@ -83,7 +83,7 @@ async fn put_asset(
 
 /// Downloads an asset.
 #[utoipa::path(get, path = "/v1/assets/{hash}",
-    params(("hash" = String, Path, description = "blake3 of the asset, lowercase hex")),
+    params(("hash" = String, Path, pattern = "^[0-9a-f]{64}$", description = "blake3 of the asset, lowercase hex")),
     responses((status = 200, content_type = "application/octet-stream", body = Vec<u8>),
               (status = 404, body = ApiError)))]
 async fn get_asset(

@@ -7,7 +7,7 @@ use axum::extract::State;
 use axum::http::HeaderMap;
 use axum::response::sse::{Event, KeepAlive, Sse};
 use futures_util::stream::{self, Stream, StreamExt};
-use spindle_common::protocol::{ApiError, FarmEvent};
+use spindle_common::protocol::{ApiError, FarmEvent, SseFarmEvent};
 use utoipa_axum::routes;
 
 use super::Declared;
@@ -24,8 +24,8 @@ pub(super) fn routes() -> Declared {
 /// `Last-Event-ID`, the events after it come first (or a `reset` when they are no longer
 /// kept). A client too slow to keep up is disconnected; it reconnects with its last id.
 #[utoipa::path(get, path = "/v1/events",
-    params(("Last-Event-ID" = Option<u64>, Header, description = "the last event id received")),
-    responses((status = 200, content_type = "text/event-stream", body = FarmEvent),
+    params(("Last-Event-ID" = Option<i64>, Header, nullable = false, minimum = 0, description = "the last event id received")),
+    responses((status = 200, content_type = "text/event-stream", body = SseFarmEvent),
               (status = 400, body = ApiError), (status = 503, body = ApiError)))]
 async fn events(
     State(state): State<AppState>,
@@ -37,6 +37,7 @@ async fn events(
             v.to_str()
                 .ok()
                 .and_then(|s| s.trim().parse::<u64>().ok())
+                .filter(|&id| id <= i64::MAX as u64)
                 .ok_or_else(|| {
                     Error::BadRequest("Last-Event-ID: must be an event id (a number)".into())
                 })?,

@@ -110,12 +110,15 @@ fn idempotency_key(headers: &HeaderMap) -> Result<Option<String>, Error> {
 #[serde(deny_unknown_fields)]
 struct ListQuery {
     /// Only jobs in this state.
+    #[param(value_type = Option<JobState>)]
     state: Option<String>,
     /// Only jobs whose name contains this.
     name: Option<String>,
     /// Jobs per page (default 100, at most 1000).
+    #[param(minimum = 1, maximum = 1000)]
     limit: Option<usize>,
-    /// `next_cursor` of the previous page.
+    /// `next_cursor` of the previous page (empty: the first page).
+    #[param(pattern = "^[0-9]{0,19}$")]
     cursor: Option<String>,
 }
 
@@ -210,11 +213,7 @@ async fn patch_job(
     ApiPath(id): ApiPath<u64>,
     JsonBody(patch): JsonBody<JobPatch>,
 ) -> Result<Json<JobInfo>, Error> {
-    let Some(priority) = patch.priority else {
-        return Err(Error::BadRequest(
-            "priority: missing (nothing to change)".into(),
-        ));
-    };
+    let priority = patch.priority;
     let info = state
         .with_ledger(move |l| l.set_priority(id, priority))
         .await?;

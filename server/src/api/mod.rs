@@ -58,7 +58,8 @@ type Declared = Vec<(Role, UtoipaMethodRouter<AppState>)>;
                        routes answer 429 past --client-rate-per-s requests a second per \
                        address (50, bursts of 100); every 429 and 503 carries Retry-After."
     ),
-    modifiers(&BearerTokens)
+    modifiers(&BearerTokens),
+    components(schemas(spindle_common::protocol::FarmEvent))
 )]
 struct ApiDoc;
 
@@ -152,6 +153,38 @@ fn require_token(paths: &mut Paths, role: Role) {
     }
 }
 
+/// Documents the 400 every operation with input can answer: a path parameter, query, header or
+/// body that does not parse or is out of range (the extractors' errors, [`crate::extract`]).
+fn document_bad_request(paths: &mut Paths) {
+    for item in paths.paths.values_mut() {
+        let operations = [
+            &mut item.get,
+            &mut item.put,
+            &mut item.post,
+            &mut item.delete,
+            &mut item.patch,
+        ];
+        for operation in operations.into_iter().flatten() {
+            let has_input = operation.request_body.is_some()
+                || operation.parameters.as_ref().is_some_and(|p| !p.is_empty());
+            if !has_input {
+                continue;
+            }
+            operation
+                .responses
+                .responses
+                .entry("400".into())
+                .or_insert_with(|| {
+                    error_response(
+                        "a path parameter, query, header or body is malformed or out of range \
+                         (the message names it)",
+                    )
+                    .into()
+                });
+        }
+    }
+}
+
 /// Every route the coordinator serves and the OpenAPI document of them.
 fn routes_and_document(state: &AppState) -> (Router<AppState>, utoipa::openapi::OpenApi) {
     let limits = &state.config().limits;
@@ -170,6 +203,7 @@ fn routes_and_document(state: &AppState) -> (Router<AppState>, utoipa::openapi::
     let mut api = OpenApiRouter::with_openapi(ApiDoc::openapi());
     for (role, (schemas, mut paths, handler)) in declared {
         require_token(&mut paths, role);
+        document_bad_request(&mut paths);
         let auth = axum::middleware::from_fn_with_state((state.clone(), role), auth::require);
         let handler = if role == Role::Client {
             let rate = axum::middleware::from_fn_with_state(state.clone(), throttle::client_rate);

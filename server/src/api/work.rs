@@ -11,8 +11,7 @@ use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
 use spindle_common::protocol::{
     ApiError, Heartbeat, HeartbeatAck, JobSpec, Lease, LeaseRequest, MAX_LEASE_WAIT_MS,
-    RegisterWorker, TileAck, TileFailure, TileOutcome, TileUpload, WorkerRegistered, check_labels,
-    pixel_hash,
+    RegisterWorker, TileAck, TileFailure, TileOutcome, TileUpload, WorkerRegistered, pixel_hash,
 };
 use tokio::time::Instant;
 use utoipa_axum::router::UtoipaMethodRouterExt;
@@ -50,18 +49,7 @@ async fn register_worker(
     State(state): State<AppState>,
     JsonBody(request): JsonBody<RegisterWorker>,
 ) -> Result<Json<WorkerRegistered>, Error> {
-    if request.name.is_empty() || request.name.len() > 200 {
-        return Err(Error::BadRequest("name: must be 1 to 200 bytes".into()));
-    }
-    if request.threads == 0 {
-        return Err(Error::BadRequest("threads: must be at least 1".into()));
-    }
-    if request.version.len() > 64 {
-        return Err(Error::BadRequest(
-            "version: must be at most 64 bytes".into(),
-        ));
-    }
-    check_labels("labels", &request.labels).map_err(Error::BadRequest)?;
+    request.check().map_err(Error::BadRequest)?;
     let max_workers = state.config().max_workers;
     let (worker_id, worker_secret) = state
         .with_ledger(move |ledger| {
@@ -94,10 +82,11 @@ async fn lease(
     RawBody(body): RawBody,
 ) -> Result<Response, Error> {
     identity.check("id", worker)?;
+    // An empty body or JSON `null` means the defaults.
     let request: LeaseRequest = if body.iter().all(u8::is_ascii_whitespace) {
         LeaseRequest::default()
     } else {
-        parse_json(&body)?
+        parse_json::<Option<LeaseRequest>>(&body)?.unwrap_or_default()
     };
     let wait = request
         .wait_ms
