@@ -11,4 +11,5 @@ pub mod scene;
 pub mod scene_files;
 pub mod stats;
 pub mod tile;
+pub mod tile_encoding;
 pub mod validate;

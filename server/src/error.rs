@@ -36,6 +36,9 @@ pub enum Error {
     /// The body is larger than the route allows (413).
     #[error("{0}")]
     TooLarge(String),
+    /// The body's `Content-Type` is not one the route reads (415).
+    #[error("{0}")]
+    UnsupportedMediaType(String),
     /// Too many jobs queued (429, `Retry-After: 10`).
     #[error("{0}")]
     TooMany(String),
@@ -70,6 +73,7 @@ impl Error {
             Error::Gone(_) => StatusCode::GONE,
             Error::Timeout(_) => StatusCode::REQUEST_TIMEOUT,
             Error::TooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
+            Error::UnsupportedMediaType(_) => StatusCode::UNSUPPORTED_MEDIA_TYPE,
             Error::TooMany(_) | Error::RateLimited { .. } => StatusCode::TOO_MANY_REQUESTS,
             Error::Unavailable(_) => StatusCode::SERVICE_UNAVAILABLE,
             Error::Internal(cause) if is_disk_full(cause) => StatusCode::INSUFFICIENT_STORAGE,

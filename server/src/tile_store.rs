@@ -1,7 +1,7 @@
 //! Finished tiles on disk, one file per tile result, named by the result's content hash.
 //!
-//! `DATA/jobs/<job>/tiles/<index>-<hash>.json` holds the [`TilePixels`] as JSON (every finite
-//! f32 survives JSON exactly; see `protocol`'s tests). Files are written to a temporary name,
+//! `DATA/jobs/<job>/tiles/<index>-<hash>.tile` holds the [`TilePixels`] in the compact form of
+//! [`tile_encoding`] (every f32 kept to the bit). Files are written to a temporary name,
 //! synced, then renamed, and only then is the tile recorded as done in the database, so a
 //! coordinator killed at any moment never records a tile it does not have. Naming by hash means
 //! a slow, stale upload can never overwrite the file a newer, recorded result lives in.
@@ -14,6 +14,11 @@ use anyhow::Context;
 use spindle_common::atomic_write;
 use spindle_common::protocol::pixel_hash;
 use spindle_common::tile::TilePixels;
+use spindle_common::tile_encoding;
+
+/// The most bytes a stored tile may inflate to: a 256-pixel tile's four layers as MessagePack
+/// f32s (5 bytes each) are under 4 MB; its statistics add little.
+const MAX_DECODED_TILE_BYTES: usize = 8 << 20;
 
 /// Why a recorded tile could not be read back.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -52,7 +57,7 @@ impl TileStore {
     fn tile_path(&self, job: u64, index: u32, hash: &str) -> PathBuf {
         self.job_dir(job)
             .join("tiles")
-            .join(format!("{index}-{hash}.json"))
+            .join(format!("{index}-{hash}.tile"))
     }
 
     /// Writes a tile result durably with [`atomic_write::write`].
@@ -64,7 +69,7 @@ impl TileStore {
         pixels: &TilePixels,
     ) -> anyhow::Result<()> {
         let path = self.tile_path(job, index, hash);
-        let bytes = serde_json::to_vec(pixels)?;
+        let bytes = tile_encoding::encode(pixels)?;
         let dir = path.parent().context("a tile path has a parent")?;
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         Ok(atomic_write::write(&path, &bytes)?)
@@ -88,8 +93,8 @@ impl TileStore {
                 return Err(ReadError::Io(format!("reading tile {index}: {e}")));
             }
         };
-        let pixels: TilePixels =
-            serde_json::from_slice(&bytes).map_err(|e| damaged(format!("does not parse ({e})")))?;
+        let pixels: TilePixels = tile_encoding::decode(&bytes, MAX_DECODED_TILE_BYTES)
+            .map_err(|e| damaged(format!("does not parse ({e})")))?;
         if pixel_hash(&pixels) != hash {
             return Err(damaged("does not hash to the recorded result".into()));
         }

@@ -9,6 +9,8 @@ use std::time::Duration;
 use axum::http::{Method, StatusCode};
 use serde_json::json;
 use spindle_common::protocol::JobState;
+use spindle_common::tile::TilePixels;
+use spindle_common::tile_encoding;
 use support::*;
 
 /// The stored file of tile `index` of `job` (its name ends with the result's hash).
@@ -19,7 +21,7 @@ fn tile_file(data: &Path, job: u64, index: u32) -> PathBuf {
         .map(|e| e.unwrap().path())
         .find(|p| {
             let name = p.file_name().unwrap().to_string_lossy().to_string();
-            name.starts_with(&format!("{index}-")) && name.ends_with(".json")
+            name.starts_with(&format!("{index}-")) && name.ends_with(".tile")
         })
         .unwrap_or_else(|| panic!("no file for tile {index} in {}", dir.display()))
 }
@@ -45,21 +47,16 @@ async fn damaged_tiles_are_rendered_again_instead_of_failing_the_job() {
             .await;
         assert_eq!(status, StatusCode::OK, "{v}");
     }
-    // One file loses its end, the other has one digit changed (only the hash can tell).
+    // One file loses its end, the other has one bit of one value changed (only the hash can
+    // tell).
     let truncated = tile_file(dir.path(), job.id, leases[0].tile_index);
     let bytes = std::fs::read(&truncated).unwrap();
     std::fs::write(&truncated, &bytes[..bytes.len() / 2]).unwrap();
     let flipped = tile_file(dir.path(), job.id, leases[1].tile_index);
-    let text = std::fs::read_to_string(&flipped).unwrap();
-    let at = text.find("\"total\":[").expect("the total layer") + "\"total\":[".len();
-    let digit = text.as_bytes()[at];
-    assert!(digit.is_ascii_digit(), "{text}");
-    let other = (b'0' + (digit - b'0' + 1) % 10) as char;
-    std::fs::write(
-        &flipped,
-        format!("{}{other}{}", &text[..at], &text[at + 1..]),
-    )
-    .unwrap();
+    let mut pixels: TilePixels =
+        tile_encoding::decode(&std::fs::read(&flipped).unwrap(), 1 << 24).unwrap();
+    pixels.total[0] = f32::from_bits(pixels.total[0].to_bits() ^ 1);
+    std::fs::write(&flipped, tile_encoding::encode(&pixels).unwrap()).unwrap();
 
     let last = &leases[2];
     let (status, v) = c

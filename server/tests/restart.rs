@@ -186,8 +186,8 @@ async fn an_interrupted_assembly_is_finished_after_a_restart() {
         .join(job.id.to_string())
         .join("tiles");
     std::fs::write(
-        tiles.join(format!("{}-{}.json", last.tile_index, upload.hash)),
-        serde_json::to_vec(&upload.pixels).unwrap(),
+        tiles.join(format!("{}-{}.tile", last.tile_index, upload.hash)),
+        spindle_common::tile_encoding::encode(&upload.pixels).unwrap(),
     )
     .unwrap();
     let db = rusqlite::Connection::open(dir.path().join("spindle.db")).unwrap();

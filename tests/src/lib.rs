@@ -265,6 +265,17 @@ impl Farm {
             http,
             dashboard_port: dashboard.then(free_port),
         };
+        // `free_port` only says the port was free a moment ago: another process may take it
+        // before the coordinator binds it. Then try other ports.
+        for _ in 0..4 {
+            match farm.start_server().await {
+                Err(e) if format!("{e:#}").contains("Address already in use") => {
+                    farm.port = free_port();
+                    farm.dashboard_port = dashboard.then(free_port);
+                }
+                other => return other.map(|()| farm),
+            }
+        }
         farm.start_server().await?;
         Ok(farm)
     }

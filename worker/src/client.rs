@@ -12,12 +12,14 @@
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+use bytes::Bytes;
 use reqwest::StatusCode;
 use serde::de::DeserializeOwned;
 use spindle_common::protocol::{
     ApiError, Heartbeat, HeartbeatAck, JobSpec, Lease, LeaseRequest, RegisterWorker, TileAck,
-    TileFailure, TileUpload, WORKER_SECRET_HEADER, WorkerRegistered,
+    TileFailure, WORKER_SECRET_HEADER, WorkerRegistered,
 };
+use spindle_common::tile_encoding;
 
 /// How long to wait for a TCP connection to the coordinator.
 const CONNECT_TIMEOUT: Duration = Duration::from_secs(5);
@@ -205,17 +207,19 @@ impl Client {
         decode(self.send(req).await?).await
     }
 
-    /// `PUT /v1/jobs/{job}/tiles/{tile}`.
+    /// `PUT /v1/jobs/{job}/tiles/{tile}` of a [`TileUpload`] in its compact form
+    /// ([`tile_encoding::encode`]).
     pub async fn upload(
         &self,
         job_id: u64,
         tile: u32,
-        body: &TileUpload,
+        encoded: Bytes,
     ) -> Result<TileAck, ClientError> {
         let req = self
             .http
             .put(self.url(&format!("/v1/jobs/{job_id}/tiles/{tile}")))
-            .json(body);
+            .header(reqwest::header::CONTENT_TYPE, tile_encoding::CONTENT_TYPE)
+            .body(encoded);
         decode(self.send(req).await?).await
     }
 

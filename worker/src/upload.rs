@@ -6,9 +6,11 @@
 //! deadline) fires. Uploads are safe to repeat: the coordinator acknowledges an identical
 //! result for a finished tile as a duplicate.
 
+use bytes::Bytes;
 use spindle_common::protocol::{TileOutcome, TileUpload, pixel_hash};
 use spindle_common::provenance::Provenance;
 use spindle_common::tile::TilePixels;
+use spindle_common::tile_encoding;
 use tokio_util::sync::CancellationToken;
 
 use crate::backoff::{Backoff, RetryEnd, retry};
@@ -58,9 +60,15 @@ pub async fn deliver(
         render_seconds: Some(rendered.seconds),
         provenance: Some(rendered.provenance),
     };
+    // Encoding (zstd over tens of kilobytes) is CPU work: off the runtime, once for all tries.
+    let encoded = match tokio::task::spawn_blocking(move || tile_encoding::encode(&body)).await {
+        Ok(Ok(encoded)) => Bytes::from(encoded),
+        Ok(Err(e)) => return Delivery::Invalid(format!("encoding the tile: {e}")),
+        Err(e) => return Delivery::Invalid(format!("encoding the tile: {e}")),
+    };
     let salt = worker_id ^ (job << 32) ^ u64::from(tile);
     match retry(policy, salt, stop, "uploading a tile", || {
-        client.upload(job, tile, &body)
+        client.upload(job, tile, encoded.clone())
     })
     .await
     {

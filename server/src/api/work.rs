@@ -7,12 +7,13 @@ use std::time::Duration;
 
 use axum::Json;
 use axum::extract::{DefaultBodyLimit, State};
-use axum::http::StatusCode;
+use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use spindle_common::protocol::{
     ApiError, Heartbeat, HeartbeatAck, JobSpec, Lease, LeaseRequest, MAX_LEASE_WAIT_MS,
     RegisterWorker, TileAck, TileFailure, TileOutcome, TileUpload, WorkerRegistered, pixel_hash,
 };
+use spindle_common::tile_encoding;
 use tokio::time::Instant;
 use utoipa_axum::router::UtoipaMethodRouterExt;
 use utoipa_axum::routes;
@@ -188,20 +189,31 @@ async fn heartbeat(
 /// Uploads a rendered tile.
 #[utoipa::path(put, path = "/v1/jobs/{job}/tiles/{tile}",
     params(("job" = u64, Path, description = "job id"), ("tile" = u32, Path, description = "tile index")),
-    request_body = TileUpload,
+    request_body(description = "a TileUpload: as JSON, or (what spindle-worker sends) as \
+        MessagePack with named fields compressed with zstd",
+        content((TileUpload = "application/json"),
+                (Vec<u8> = "application/vnd.spindle.tile+msgpack+zstd"))),
     responses((status = 200, body = TileAck), (status = 400, body = ApiError),
               (status = 404, body = ApiError), (status = 409, body = ApiError),
-              (status = 413, body = ApiError)))]
+              (status = 413, body = ApiError), (status = 415, body = ApiError)))]
 async fn upload_tile(
     State(state): State<AppState>,
     identity: WorkerIdentity,
     ApiPath((job, tile)): ApiPath<(u64, u32)>,
+    headers: HeaderMap,
     RawBody(body): RawBody,
 ) -> Result<Json<TileAck>, Error> {
     crate::metrics::upload_received(body.len());
-    // Parsing and hashing up to megabytes of floats is CPU work: off the runtime.
+    let encoding = UploadEncoding::of(&headers)?;
+    let limit = state.config().limits.max_tile_upload_bytes;
+    // Decoding and hashing up to megabytes of floats is CPU work: off the runtime.
     let upload = tokio::task::spawn_blocking(move || {
-        let upload: TileUpload = parse_json(&body)?;
+        let upload: TileUpload = match encoding {
+            UploadEncoding::Json => parse_json(&body)?,
+            UploadEncoding::Compact => {
+                tile_encoding::decode(&body, limit).map_err(|e| Error::BadRequest(e.to_string()))?
+            }
+        };
         upload.check_report().map_err(Error::BadRequest)?;
         let actual = pixel_hash(&upload.pixels);
         if actual != upload.hash {
@@ -264,6 +276,36 @@ async fn upload_tile(
         state.assemble_complete_jobs();
     }
     Ok(Json(TileAck { outcome }))
+}
+
+/// How a tile upload's body is written, by its `Content-Type`.
+#[derive(Debug, Clone, Copy)]
+enum UploadEncoding {
+    /// `application/json`, or no content type.
+    Json,
+    /// [`tile_encoding::CONTENT_TYPE`].
+    Compact,
+}
+
+impl UploadEncoding {
+    fn of(headers: &HeaderMap) -> Result<UploadEncoding, Error> {
+        let Some(value) = headers.get(header::CONTENT_TYPE) else {
+            return Ok(UploadEncoding::Json);
+        };
+        let essence = value
+            .to_str()
+            .ok()
+            .and_then(|v| v.split(';').next())
+            .map(|v| v.trim().to_ascii_lowercase());
+        match essence.as_deref() {
+            Some("application/json") => Ok(UploadEncoding::Json),
+            Some(tile_encoding::CONTENT_TYPE) => Ok(UploadEncoding::Compact),
+            _ => Err(Error::UnsupportedMediaType(format!(
+                "Content-Type: a tile is application/json or {}",
+                tile_encoding::CONTENT_TYPE
+            ))),
+        }
+    }
 }
 
 /// Removes the files of a job deleted while one of its tiles was being stored; a failure is

@@ -1,10 +1,13 @@
 //! `spindle-load`: how hard one coordinator can be driven. It starts the real `spindle-server`
-//! on loopback, keeps it fed with jobs of 8-px tiles (the cheapest scene: single scattering off),
+//! on loopback, keeps it fed with jobs of 8-px tiles (`--tile`; the cheapest scene: single
+//! scattering off, unless `--scatter-spp`),
 //! and runs N simulated workers in this process — each with its own connection, doing
 //! register, then lease → upload round trips as fast as the coordinator answers, uploading
 //! ready-made tiles (rendered once here beforehand, so the workers cost no rendering) — while a
-//! client polls a job's status. It prints tile round trips per second and the status latency's
-//! p50 and p99 over the measured window.
+//! client polls a job's status. It prints tile round trips per second, the status latency's
+//! p50 and p99, the mean upload body and the coordinator's CPU time per tile (user + system,
+//! from `/proc`) over the measured window. `--tiles json` uploads JSON bodies instead of the
+//! compact form `spindle-worker` sends, to compare the two.
 //!
 //! A benchmark that prints figures, not a test: nothing here is asserted about speed. Every
 //! upload must still be accepted (a refused one is counted and reported).
@@ -28,6 +31,7 @@ use spindle_common::protocol::{
     WORKER_SECRET_HEADER, WorkerRegistered, asset_hash, pixel_hash,
 };
 use spindle_common::tile::{TilePixels, split_centre_first};
+use spindle_common::tile_encoding;
 use spindle_render::{Scene, render_tile};
 use spindle_tests::{Proc, free_port, http_builder, test_scene};
 
@@ -50,9 +54,25 @@ struct Args {
     /// The `spindle-server` binary (default: the one beside this program).
     #[arg(long)]
     server_bin: Option<PathBuf>,
+    /// Tile edge in pixels.
+    #[arg(long, default_value_t = 8)]
+    tile: u32,
+    /// Samples per pixel of the ready-made tiles, with single scattering on (realistic layers
+    /// and upload sizes; the ready-made tiles take longer to render first). Default: 1 sample,
+    /// single scattering off.
+    #[arg(long)]
+    scatter_spp: Option<u32>,
+    /// How tiles are uploaded: `compact` (what spindle-worker sends) or `json`.
+    #[arg(long, value_enum, default_value_t = TileBody::Compact)]
+    tiles: TileBody,
 }
 
-const TILE: u32 = 8;
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum TileBody {
+    Compact,
+    Json,
+}
+
 const CLIENT_TOKEN: &str = "load-client-token";
 const WORKER_TOKEN: &str = "load-worker-token";
 
@@ -85,12 +105,13 @@ struct Workload {
     tiles: HashMap<(u32, u32), TilePixels>,
 }
 
-fn workload(size: u32) -> Result<Workload> {
-    let (mut scene, assets) = test_scene(size, size, 1);
-    scene["integrator"]["single_scatter"]["method"] = serde_json::json!("none");
+fn workload(size: u32, tile: u32, scatter_spp: Option<u32>) -> Result<Workload> {
+    let (mut scene, assets) = test_scene(size, size, scatter_spp.unwrap_or(1));
+    let method = if scatter_spp.is_some() { "auto" } else { "none" };
+    scene["integrator"]["single_scatter"]["method"] = serde_json::json!(method);
     let desc = serde_json::from_value(scene.clone())?;
     let built = Scene::build(&desc, &assets).map_err(|e| anyhow!("the load scene: {e}"))?;
-    let tiles = split_centre_first(size, size, TILE)
+    let tiles = split_centre_first(size, size, tile)
         .into_iter()
         .map(|rect| ((rect.x, rect.y), render_tile(&built, rect)))
         .collect();
@@ -102,7 +123,7 @@ fn workload(size: u32) -> Result<Workload> {
         submit: SubmitJob {
             scene: desc,
             assets: table,
-            tile_size: TILE,
+            tile_size: tile,
             priority: 0,
             requires: Default::default(),
             name: Some("load".into()),
@@ -122,13 +143,16 @@ struct Shared {
     stop: AtomicBool,
     round_trips: AtomicU64,
     refused: AtomicU64,
+    /// Upload body bytes of the counted round trips.
+    upload_bytes: AtomicU64,
+    tiles: TileBody,
     /// The newest job, for the status poller.
     latest_job: AtomicU64,
 }
 
 async fn run(args: Args, server_bin: PathBuf) -> Result<()> {
     eprintln!("rendering the ready-made tiles…");
-    let workload = workload(args.size)?;
+    let workload = workload(args.size, args.tile, args.scatter_spp)?;
     let dir = tempfile::tempdir()?;
     let port = free_port();
     let mut cmd = Command::new(&server_bin);
@@ -152,6 +176,8 @@ async fn run(args: Args, server_bin: PathBuf) -> Result<()> {
         stop: AtomicBool::new(false),
         round_trips: AtomicU64::new(0),
         refused: AtomicU64::new(0),
+        upload_bytes: AtomicU64::new(0),
+        tiles: args.tiles,
         latest_job: AtomicU64::new(0),
     });
     let client = new_client()?;
@@ -177,10 +203,12 @@ async fn run(args: Args, server_bin: PathBuf) -> Result<()> {
     let warm_up_end = Instant::now() + Duration::from_secs(1);
     let end = warm_up_end + Duration::from_secs_f64(args.seconds);
     let mut started = None;
+    let mut cpu_at_start = None;
     while Instant::now() < end {
         if started.is_none() && Instant::now() >= warm_up_end {
             shared.measuring.store(true, Ordering::SeqCst);
             started = Some(Instant::now());
+            cpu_at_start = cpu_seconds(server.pid());
         }
         // Keep two unfinished jobs.
         let mut unfinished = Vec::new();
@@ -201,6 +229,9 @@ async fn run(args: Args, server_bin: PathBuf) -> Result<()> {
     }
     shared.measuring.store(false, Ordering::SeqCst);
     let window = started.map_or(0.0, |s| s.elapsed().as_secs_f64());
+    let server_cpu = cpu_at_start
+        .zip(cpu_seconds(server.pid()))
+        .map(|(a, b)| b - a);
     shared.stop.store(true, Ordering::SeqCst);
     for task in tasks {
         task.await??;
@@ -216,17 +247,36 @@ async fn run(args: Args, server_bin: PathBuf) -> Result<()> {
             .copied()
             .unwrap_or(f64::NAN)
     };
+    let per_tile = |total: f64| total / round_trips.max(1) as f64;
+    let cpu = server_cpu.map_or("n/a".to_string(), |c| {
+        format!("{:.0} µs", per_tile(c) * 1e6)
+    });
     println!(
-        "workers {}  window {window:.1} s  tile round trips {round_trips}  {:.0} tiles/s  \
-         status p50 {:.2} ms  p99 {:.2} ms  ({} polls)  refused {}",
+        "workers {}  tiles {:?}  window {window:.1} s  tile round trips {round_trips}  \
+         {:.0} tiles/s  status p50 {:.2} ms  p99 {:.2} ms  ({} polls)  refused {}  \
+         upload {:.0} bytes/tile  coordinator CPU {cpu}/tile",
         args.workers,
+        args.tiles,
         round_trips as f64 / window,
         quantile(0.5),
         quantile(0.99),
         latencies.len(),
-        shared.refused.load(Ordering::SeqCst)
+        shared.refused.load(Ordering::SeqCst),
+        per_tile(shared.upload_bytes.load(Ordering::SeqCst) as f64),
     );
     Ok(())
+}
+
+/// User + system CPU seconds of process `pid` so far (`/proc/<pid>/stat`, fields 14 and 15, in
+/// clock ticks of 1/100 s on Linux); `None` where that cannot be read.
+fn cpu_seconds(pid: u32) -> Option<f64> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+    // The command name (field 2) is in parentheses and may hold spaces: count after it.
+    let after_name = &stat[stat.rfind(')')? + 1..];
+    let fields: Vec<&str> = after_name.split_whitespace().collect();
+    let ticks = |i: usize| fields.get(i)?.parse::<f64>().ok();
+    // After the name: state is field 3, so field n is at index n - 3.
+    Some((ticks(14 - 3)? + ticks(15 - 3)?) / 100.0)
 }
 
 fn new_client() -> Result<reqwest::Client> {
@@ -343,6 +393,11 @@ async fn worker(shared: Arc<Shared>, i: usize) -> Result<()> {
             render_seconds: None,
             provenance: None,
         };
+        let (content_type, body) = match shared.tiles {
+            TileBody::Compact => (tile_encoding::CONTENT_TYPE, tile_encoding::encode(&upload)?),
+            TileBody::Json => ("application/json", serde_json::to_vec(&upload)?),
+        };
+        let bytes = body.len() as u64;
         let resp = client
             .put(format!(
                 "{base}/v1/jobs/{}/tiles/{}",
@@ -350,13 +405,15 @@ async fn worker(shared: Arc<Shared>, i: usize) -> Result<()> {
             ))
             .bearer_auth(WORKER_TOKEN)
             .header(WORKER_SECRET_HEADER, &secret)
-            .json(&upload)
+            .header(reqwest::header::CONTENT_TYPE, content_type)
+            .body(body)
             .send()
             .await?;
         let accepted = resp.status().is_success()
             && resp.json::<TileAck>().await?.outcome == TileOutcome::Accepted;
         if shared.measuring.load(Ordering::SeqCst) {
             let counter = if accepted {
+                shared.upload_bytes.fetch_add(bytes, Ordering::SeqCst);
                 &shared.round_trips
             } else {
                 &shared.refused
