@@ -24,6 +24,8 @@ use crate::scene::Object;
 pub struct Candidate {
     /// Index of the triangle in the object's mesh.
     pub triangle: u32,
+    /// Its leaf slot in the BVH, where its pruning bounds are (`PruneBounds::triangle_at_slot`).
+    pub slot: u32,
     /// The query's range, cut by the triangle's plane.
     pub range: DepthRange,
 }
@@ -136,6 +138,7 @@ pub fn for_each_candidate(
             visit(
                 Candidate {
                     triangle,
+                    slot,
                     range: DepthRange {
                         lo: search.0,
                         hi: search.1,

@@ -11,8 +11,9 @@ use crate::scatter::triangle::ends::{DepthRange, PathEnds};
 
 /// The proof that pruning is conservative: over many valid refraction paths (built forward, so
 /// valid by construction, including grazing exits and every η of issue 3), neither the spindle
-/// test on the triangle's sphere, nor on a box around it, nor the cone test ever discards the
-/// triangle, and the trimmed t-range always contains the path's `t`.
+/// test on the triangle's sphere, nor on a box around it, nor the cone test (on the segment's
+/// range, or on the path's `t` alone) ever discards the triangle, and the trimmed t-range always
+/// contains the path's `t`.
 #[test]
 fn pruning_never_discards_a_valid_path() {
     let mut rng = Rng(7);
@@ -48,6 +49,12 @@ fn pruning_never_discards_a_valid_path() {
             assert!(
                 query.cone_may_contain(sphere, cone),
                 "cone test (no trim) culled a valid path: {query:?} t={t_v}"
+            );
+            // At the single depth of the path (the interval method's test of a range end).
+            let at_t = query.with_range(DepthRange { lo: t_v, hi: t_v });
+            assert!(
+                at_t.cone_may_contain(sphere, cone),
+                "cone test at the path's own depth culled it: {query:?} t={t_v}"
             );
             if t1 - t0 < query.range.hi - query.range.lo {
                 cone_trimmed += 1;

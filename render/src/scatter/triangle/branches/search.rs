@@ -26,7 +26,8 @@ pub const SEARCH_TOLERANCE: f64 = 1e-10;
 /// The per-triangle search: finds every monotone branch of the curve inside the triangle within
 /// `range`, solving to `tolerance` or [`SEARCH_TOLERANCE`], whichever is tighter. Newton
 /// evaluations and failures, intervals and folds are counted in `stats`. The triangle's edges are
-/// scanned from its own patch; [`triangle_intervals_with`] takes the scans from elsewhere.
+/// scanned from its own patch; [`triangle_intervals_with`] takes the scans from elsewhere and a
+/// cheap test of the range ends.
 pub fn triangle_intervals(
     patch: &TrianglePatch,
     ends: &PathEnds,
@@ -35,17 +36,22 @@ pub fn triangle_intervals(
     stats: &mut RenderStats,
 ) -> Intervals {
     let own = |edge: Edge| scan_line(patch, ends, &edge.line());
-    triangle_intervals_with(patch, ends, range, tolerance, own, stats)
+    triangle_intervals_with(patch, ends, range, tolerance, own, |_| true, stats)
 }
 
 /// [`triangle_intervals`] with the scan of each edge (in the direction of [`Edge::line`]) from
-/// `edge_scan`, e.g. shared with the neighbouring triangles (`edge_scans`).
+/// `edge_scan`, e.g. shared with the neighbouring triangles (`edge_scans`), and with
+/// `may_hold_at(t)`, which must be `false` only where no valid refraction point on the triangle
+/// sees `V(t)` (e.g. the cone test at the single point `V(t)`): the solves at a range end `t` where
+/// it is `false` are skipped (they cannot succeed, and a failing solve is the search's most
+/// expensive step).
 pub fn triangle_intervals_with(
     patch: &TrianglePatch,
     ends: &PathEnds,
     range: DepthRange,
     tolerance: f64,
     mut edge_scan: impl FnMut(Edge) -> LineScan,
+    mut may_hold_at: impl FnMut(f64) -> bool,
     stats: &mut RenderStats,
 ) -> Intervals {
     let tolerance = tolerance.min(SEARCH_TOLERANCE);
@@ -101,7 +107,9 @@ pub fn triangle_intervals_with(
         boundary.push_or_count(point, &mut stats.capacity_drops);
     }
     for (side, t) in [(Side::RangeLow, range.lo), (Side::RangeHigh, range.hi)] {
-        tracer.range_end_points(side, t, &mut boundary, stats);
+        if may_hold_at(t) {
+            tracer.range_end_points(side, t, &mut boundary, stats);
+        }
     }
     let mut seeds = InteriorSeeds::default();
     for (line, l) in lines.iter().enumerate() {
