@@ -91,7 +91,7 @@ impl PixelProgress {
             self.mean_y += delta_y / taken;
             self.m2_y += delta_y * (luminance - self.mean_y);
             if let Some(target) = film.target_error
-                && self.taken % ADAPTIVE_BATCH == 0
+                && self.taken.is_multiple_of(ADAPTIVE_BATCH)
             {
                 let stderr_y = (self.m2_y.max(0.0) / ((taken - 1.0) * taken)).sqrt();
                 if stderr_y <= target * self.mean_y.abs() {
