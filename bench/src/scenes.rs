@@ -166,6 +166,7 @@ pub fn film(size: u32, spp: u32) -> desc::Film {
         spp,
         seed: 7,
         target_error: None,
+        time_budget_s: None,
     }
 }
 

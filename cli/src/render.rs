@@ -41,6 +41,11 @@ pub struct RenderArgs {
     /// Camera samples per pixel (overrides `film.spp`).
     #[arg(long)]
     pub spp: Option<u32>,
+    /// Ignore `film.time_budget_s`: render to `film.spp` (or `film.target_error`) in one pass.
+    /// A budgeted render is reproduced bit for bit by `--workers 0 --no-time-budget --spp N`,
+    /// N its EXR's `spindle.spp`.
+    #[arg(long)]
+    pub no_time_budget: bool,
     /// Random seed (overrides `film.seed`).
     #[arg(long)]
     pub seed: Option<u64>,
@@ -73,10 +78,13 @@ impl RenderArgs {
         })
     }
 
-    /// Applies `--spp` and `--seed` to a scene.
+    /// Applies `--spp`, `--seed` and `--no-time-budget` to a scene.
     fn edit(&self, scene: &mut SceneDescription) {
         if let Some(spp) = self.spp {
             scene.film.spp = spp;
+        }
+        if self.no_time_budget {
+            scene.film.time_budget_s = None;
         }
         if let Some(seed) = self.seed {
             scene.film.seed = seed;
@@ -167,6 +175,13 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
     // Read and check the scene here first, so a mistake is reported before any farm starts.
     let mut files = load_scene(&args.scene)?;
     args.edit(&mut files.desc);
+    if files.desc.film.time_budget_s.is_some() {
+        bail!(
+            "{}: film.time_budget_s: progressive passes run only in this process: add \
+             --workers 0 (or --no-time-budget to render to film.spp on the farm)",
+            args.scene.display()
+        );
+    }
     let desc = files.desc.clone();
     // The workers build the scene again; here it is built once to say the single-scattering plan.
     let provenance = Scene::build(&files.desc, &files.assets)
@@ -289,11 +304,29 @@ fn in_process(args: &RenderArgs) -> Result<()> {
         progress.set_draw_target(ProgressDrawTarget::hidden());
     }
     let render_started = Instant::now();
-    let (mut image, stats) =
-        spindle_render::render_frame(&scene, region, &|rows| progress.inc(rows))?;
+    let budget = files
+        .desc
+        .film
+        .time_budget_s
+        .filter(|_| args.pixel.is_none());
+    let (mut image, stats, passes) = match budget {
+        None => {
+            let (image, stats) =
+                spindle_render::render_frame(&scene, region, &|rows| progress.inc(rows))?;
+            (image, stats, None)
+        }
+        Some(budget) => {
+            progress.set_draw_target(ProgressDrawTarget::hidden());
+            let (image, stats, report) = render_in_passes(&scene, region, budget, render_started)?;
+            (image, stats, Some(report))
+        }
+    };
     progress.finish_and_clear();
     let rendered = render_started.elapsed();
-
+    if let Some(report) = passes {
+        // The header says what the image is: the render of `spp` = the samples reached.
+        files.desc.film.spp = report.spp;
+    }
     let a = &mut image.attributes;
     describe(a, args, &files.desc, &stats, &provenance);
     a.insert(
@@ -303,6 +336,12 @@ fn in_process(args: &RenderArgs) -> Result<()> {
             region.x, region.y, region.width, region.height
         ),
     );
+    if let Some(report) = passes {
+        a.insert("spindle.passes".into(), report.passes.to_string());
+        if let Some(budget) = scene.film().time_budget_s {
+            a.insert("spindle.time_budget_s".into(), budget.to_string());
+        }
+    }
     let preview = write_outputs(&image, args)?;
 
     println!(
@@ -319,7 +358,7 @@ fn in_process(args: &RenderArgs) -> Result<()> {
                 region.x, region.y, region.width, region.height
             )
         },
-        summary.spp,
+        files.desc.film.spp,
         summary.triangles,
         summary.objects,
         summary.lights,
@@ -328,8 +367,39 @@ fn in_process(args: &RenderArgs) -> Result<()> {
         built.as_secs_f64(),
     );
     println!("preview {}", preview.display());
+    if let Some(report) = passes {
+        println!(
+            "{} of {} spp in {} passes; the same bits: --workers 0 --no-time-budget --spp {}",
+            report.spp,
+            scene.film().spp,
+            report.passes,
+            report.spp
+        );
+    }
     print_stats(args, &stats, &image);
     Ok(())
+}
+
+/// `film.time_budget_s`: progressive passes while the next one, taking as long as the last,
+/// would end within `budget` seconds of `started` (the first pass always runs).
+fn render_in_passes(
+    scene: &Scene,
+    region: TileRect,
+    budget: f64,
+    started: Instant,
+) -> Result<(Image, RenderStats, spindle_render::PassReport)> {
+    let mut last_end = 0.0;
+    let result = spindle_render::render_frame_passes(scene, region, &mut |report| {
+        let now = started.elapsed().as_secs_f64();
+        let pass_seconds = now - last_end;
+        last_end = now;
+        eprintln!(
+            "pass {}: {} spp, {} pixels still sampling, {now:.1} s of {budget} s",
+            report.passes, report.spp, report.pixels_sampling
+        );
+        now + pass_seconds <= budget
+    })?;
+    Ok(result)
 }
 
 /// Says which single-scattering model runs for each object (the `auto` method's choice).

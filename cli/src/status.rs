@@ -92,6 +92,12 @@ fn describe(j: &JobInfo) -> String {
     if let Some(eta) = j.eta_s.filter(|_| !j.state.is_finished()) {
         s.push_str(&format!("  eta       {eta:.1} s\n"));
     }
+    if let Some(noise) = j.relative_error {
+        s.push_str(&format!(
+            "  noise     {:.2} % (estimated relative RMS error of the tiles done)\n",
+            100.0 * noise
+        ));
+    }
     if let Some(e) = &j.error {
         s.push_str(&format!("  error     {e}\n"));
     }
@@ -154,7 +160,18 @@ mod tests {
             workers_eligible: workers_live,
             stats: Default::default(),
             provenance: None,
+            relative_error: None,
         }
+    }
+
+    #[test]
+    fn the_noise_is_shown_in_percent() {
+        let text = describe(&JobInfo {
+            relative_error: Some(0.01234),
+            ..job(JobState::Running, 1)
+        });
+        assert!(text.contains("  noise     1.23 % (estimated"), "{text}");
+        assert!(!describe(&job(JobState::Running, 1)).contains("noise"));
     }
 
     #[test]

@@ -5,6 +5,7 @@
 
 pub mod atomic_write;
 pub mod image;
+pub mod noise;
 pub mod protocol;
 pub mod provenance;
 pub mod scene;

@@ -279,6 +279,12 @@ pub struct JobInfo {
     /// (absent until then); written into the job's EXR header.
     #[serde(default)]
     pub provenance: Option<Provenance>,
+    /// The image's estimated relative RMS error over the tiles done so far,
+    /// `sqrt(Σ stderr²) / sqrt(Σ total²)` over their pixels and channels (the `stderr` layer
+    /// against the `total` layer; [`crate::noise::NoiseSums`]); absent until a tile that is not
+    /// black is in.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub relative_error: Option<f64>,
 }
 
 /// How many tile failures a [`JobInfo`] keeps (the newest).

@@ -141,6 +141,13 @@ pub struct Film {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schema(exclusive_minimum = 0.0, exclusive_maximum = 1.0)]
     pub target_error: Option<f64>,
+    /// Progressive passes for at most about this many seconds (`spindle render --workers 0`):
+    /// each pass adds [`ADAPTIVE_BATCH`] samples to every pixel still sampling, up to `spp`; no
+    /// pass starts that the previous one's duration says would end past the budget. The image is
+    /// that of the complete passes, which is the image of `spp` = the samples reached, recorded
+    /// in the header. `None`: one pass to `spp` (or `target_error`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_budget_s: Option<f64>,
 }
 
 /// Samples a pixel takes between two checks of its error under `film.target_error` (and

@@ -18,6 +18,8 @@ use crate::scene::{
 pub const MAX_IMAGE_SIDE: u32 = 16384;
 /// The largest `film.spp` accepted (by the CLI, the renderer and the coordinator alike).
 pub const MAX_SPP: u32 = 1 << 16;
+/// The largest `film.time_budget_s` accepted: a week, beyond which a budget is a mistake.
+pub const MAX_TIME_BUDGET_S: f64 = 7.0 * 24.0 * 3600.0;
 /// The largest absolute world coordinate of anything in a scene — camera, lights, and every
 /// vertex after its object's transform — and the largest length (radii). The renderer keeps
 /// boxes in f32 (7 significant digits) and solves in f64 with absolute tolerances scaled to the
@@ -166,6 +168,14 @@ fn check_film(path: &str, film: &Film) -> Check {
     check_count(&format!("{path}.spp"), film.spp, 1, MAX_SPP)?;
     if let Some(target) = film.target_error {
         check_open_range(&format!("{path}.target_error"), target, 0.0, 1.0)?;
+    }
+    if let Some(budget) = film.time_budget_s {
+        check_open_range(
+            &format!("{path}.time_budget_s"),
+            budget,
+            0.0,
+            MAX_TIME_BUDGET_S,
+        )?;
     }
     Ok(())
 }

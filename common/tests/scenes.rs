@@ -41,7 +41,12 @@ fn every_example_scene_loads_and_validates() {
     names.sort();
     assert_eq!(
         names,
-        ["bumpy-sphere.json", "glass-sphere.json", "tiny.json"]
+        [
+            "bumpy-sphere.json",
+            "caustic.json",
+            "glass-sphere.json",
+            "tiny.json"
+        ]
     );
 }
 
@@ -56,6 +61,9 @@ fn the_examples_have_the_documented_sizes() {
         (tiny.film.width, tiny.film.height, tiny.film.spp),
         (32, 24, 1)
     );
+    // The README's first command renders it: a size a person enjoys.
+    let caustic = load("caustic.json");
+    assert_eq!((caustic.film.width, caustic.film.height), (640, 480));
     for name in ["glass-sphere.json", "bumpy-sphere.json"] {
         let scene = load(name);
         assert_eq!(

@@ -29,9 +29,9 @@ pub mod tile;
 pub mod transform;
 pub mod transport;
 
-pub use frame::render_frame;
+pub use frame::{PASS_SPP, PassReport, render_frame, render_frame_passes};
 pub use provenance::provenance;
 pub use rgb::Rgb;
 pub use scene::{Assets, Scene};
 pub use spindle_common::validate::SceneError;
-pub use tile::{PixelValue, render_pixel, render_tile, render_tile_with_progress};
+pub use tile::{PixelProgress, PixelValue, render_pixel, render_tile, render_tile_with_progress};

@@ -30,54 +30,93 @@ pub struct PixelValue {
 /// luminance's relative standard error reaches the target (or is 0), at most `film.spp`; which
 /// samples it takes depends only on the pixel, so any tiling gives the same bits.
 pub fn render_pixel(scene: &Scene, x: u32, y: u32) -> PixelValue {
-    let film = scene.film();
-    let mut stats = RenderStats::default();
-    let mut sum = Radiance::default();
+    let mut pixel = PixelProgress::default();
+    pixel.advance(scene, x, y, scene.film().spp);
+    pixel.value()
+}
+
+/// A pixel's running sums between progressive passes ([`crate::frame::render_frame_passes`]).
+///
+/// Invariant: advancing a fresh state to cap `a`, then to `b` ≥ `a`, performs exactly the
+/// floating-point operations of advancing it to `b` at once, as long as `a` is a multiple of
+/// [`ADAPTIVE_BATCH`] (where the stopping rule is checked): samples are taken in index order,
+/// and a pixel that met `film.target_error` takes no more. So [`PixelProgress::value`] after
+/// any such sequence of caps is the bits [`render_pixel`] gives with `film.spp` = the last cap.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct PixelProgress {
+    sum: Radiance,
     // Welford: the running mean of the total and the sum of squared deviations from it, per
     // channel and for the luminance.
-    let (mut mean, mut m2) = (Rgb::ZERO, Rgb::ZERO);
-    let (mut mean_y, mut m2_y) = (0.0, 0.0);
-    let mut taken = 0;
-    while taken < film.spp {
-        let mut sampler = Sampler::new(film.seed, x, y, taken);
-        let [u, v] = sampler.next_2d();
-        let ray = scene.camera().ray(x as f64 + u, y as f64 + v);
-        stats.camera_rays += 1;
-        let r = radiance(scene, &ray, &mut sampler, &mut stats);
-        sum.surface += r.surface;
-        sum.single_scatter += r.single_scatter;
-        taken += 1;
-        let total = r.surface + r.single_scatter;
-        let delta = total - mean;
-        mean += delta / f64::from(taken);
-        m2 += delta * (total - mean);
-        let luminance = LUMINANCE.dot(total);
-        let delta_y = luminance - mean_y;
-        mean_y += delta_y / f64::from(taken);
-        m2_y += delta_y * (luminance - mean_y);
-        if let Some(target) = film.target_error
-            && taken % ADAPTIVE_BATCH == 0
-        {
-            let n = f64::from(taken);
-            let stderr_y = (m2_y.max(0.0) / ((n - 1.0) * n)).sqrt();
-            if stderr_y <= target * mean_y.abs() {
-                break;
+    mean: Rgb,
+    m2: Rgb,
+    mean_y: f64,
+    m2_y: f64,
+    taken: u32,
+    /// The pixel met `film.target_error` at a batch boundary.
+    converged: bool,
+    stats: RenderStats,
+}
+
+impl PixelProgress {
+    /// Samples taken so far.
+    pub fn taken(&self) -> u32 {
+        self.taken
+    }
+
+    /// Will [`PixelProgress::advance`] take no more samples below `cap`?
+    pub fn is_done(&self, cap: u32) -> bool {
+        self.converged || self.taken >= cap
+    }
+
+    /// Takes samples `taken, taken + 1, …` of pixel `(x, y)` until `cap` samples are taken or
+    /// the pixel meets `film.target_error`.
+    pub fn advance(&mut self, scene: &Scene, x: u32, y: u32, cap: u32) {
+        let film = scene.film();
+        while !self.converged && self.taken < cap {
+            let mut sampler = Sampler::new(film.seed, x, y, self.taken);
+            let [u, v] = sampler.next_2d();
+            let ray = scene.camera().ray(x as f64 + u, y as f64 + v);
+            self.stats.camera_rays += 1;
+            let r = radiance(scene, &ray, &mut sampler, &mut self.stats);
+            self.sum.surface += r.surface;
+            self.sum.single_scatter += r.single_scatter;
+            self.taken += 1;
+            let taken = f64::from(self.taken);
+            let total = r.surface + r.single_scatter;
+            let delta = total - self.mean;
+            self.mean += delta / taken;
+            self.m2 += delta * (total - self.mean);
+            let luminance = LUMINANCE.dot(total);
+            let delta_y = luminance - self.mean_y;
+            self.mean_y += delta_y / taken;
+            self.m2_y += delta_y * (luminance - self.mean_y);
+            if let Some(target) = film.target_error
+                && self.taken.is_multiple_of(ADAPTIVE_BATCH)
+            {
+                let stderr_y = (self.m2_y.max(0.0) / ((taken - 1.0) * taken)).sqrt();
+                if stderr_y <= target * self.mean_y.abs() {
+                    self.converged = true;
+                }
             }
         }
     }
-    let n = f64::from(taken.max(1));
-    let stderr = if taken > 1 {
-        (m2.max(Rgb::ZERO) / ((n - 1.0) * n)).map(f64::sqrt)
-    } else {
-        Rgb::ZERO
-    };
-    PixelValue {
-        radiance: Radiance {
-            surface: sum.surface / n,
-            single_scatter: sum.single_scatter / n,
-        },
-        stderr,
-        stats,
+
+    /// The pixel's mean over the samples taken so far, its standard error and its cost.
+    pub fn value(&self) -> PixelValue {
+        let n = f64::from(self.taken.max(1));
+        let stderr = if self.taken > 1 {
+            (self.m2.max(Rgb::ZERO) / ((n - 1.0) * n)).map(f64::sqrt)
+        } else {
+            Rgb::ZERO
+        };
+        PixelValue {
+            radiance: Radiance {
+                surface: self.sum.surface / n,
+                single_scatter: self.sum.single_scatter / n,
+            },
+            stderr,
+            stats: self.stats,
+        }
     }
 }
 
@@ -107,8 +146,16 @@ pub fn render_tile_with_progress(
             values
         })
         .collect();
+    pixels_to_tile(rect, rows.iter().flatten())
+}
+
+/// The tile of `rect` from its pixels' values, in row-major order.
+pub(crate) fn pixels_to_tile<'a>(
+    rect: TileRect,
+    values: impl Iterator<Item = &'a PixelValue>,
+) -> TilePixels {
     let mut tile = TilePixels::black(rect);
-    for (i, value) in rows.iter().flatten().enumerate() {
+    for (i, value) in values.enumerate() {
         let r = value.radiance;
         let total = r.surface + r.single_scatter;
         for c in 0..3 {

@@ -342,6 +342,10 @@ function renderJob(job) {
     ['Submitted', `${when(job.submitted_at_ms)}${job.submitter ? ` by ${job.submitter}` : ''}`],
     ['Elapsed', duration(job.elapsed_s)],
     ['ETA', FINISHED.has(job.state) ? '–' : duration(job.eta_s)],
+    // sqrt(Σ stderr²) / sqrt(Σ total²) over the tiles done (JobInfo.relative_error).
+    ['Noise', job.relative_error == null ? '–'
+      : el('span', { id: 'job-noise', title: 'estimated relative RMS error of the tiles done' },
+        `${(100 * job.relative_error).toFixed(2)} %`)],
     ['Workers', `${job.workers_live} live, ${job.workers_eligible} eligible`],
   ];
   if (Object.keys(job.requires).length) {

@@ -15,6 +15,12 @@ use crate::assets::AssetStore;
 use crate::error::Error;
 use crate::limits::Limits;
 
+/// Why a job with `film.time_budget_s` is refused: a farm job renders every tile to `spp` (or
+/// `target_error`); progressive passes exist only in `spindle render --workers 0`.
+pub const FARM_TIME_BUDGET: &str = "scene.film.time_budget_s: the farm does not run time \
+    budgets (progressive passes are only in `spindle render --workers 0`); remove it, or set \
+    film.spp to the samples a budgeted local render reached (its EXR's spindle.spp)";
+
 /// Admits `submit` or says why not.
 pub async fn admit(submit: &SubmitJob, limits: &Limits, assets: &AssetStore) -> Result<(), Error> {
     submit.scene.validate().map_err(|e| {
@@ -24,6 +30,9 @@ pub async fn admit(submit: &SubmitJob, limits: &Limits, assets: &AssetStore) -> 
             format!("scene.{e}")
         })
     })?;
+    if submit.scene.film.time_budget_s.is_some() {
+        return Err(Error::BadRequest(FARM_TIME_BUDGET.into()));
+    }
     limits
         .check_film(&submit.scene, submit.tile_size)
         .map_err(Error::BadRequest)?;

@@ -14,6 +14,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use rusqlite::{Connection, Transaction, params};
+use spindle_common::noise::NoiseSums;
 use spindle_common::protocol::{JobState, TileUpload};
 use spindle_common::stats::RenderStats;
 
@@ -90,6 +91,12 @@ const MIGRATIONS: &[&str] = &[
     ALTER TABLE jobs ADD COLUMN provenance TEXT;
     ALTER TABLE tiles ADD COLUMN render_seconds REAL;
     ALTER TABLE jobs ADD COLUMN tile_times TEXT;
+"#,
+    // Each done tile's noise sums (common's `NoiseSums` as JSON: Σ stderr², Σ total²), and a
+    // done job's, kept when its tile rows are deleted; NULL for tiles and jobs done before.
+    r#"
+    ALTER TABLE tiles ADD COLUMN noise TEXT;
+    ALTER TABLE jobs ADD COLUMN noise TEXT;
 "#,
 ];
 
@@ -578,6 +585,53 @@ pub fn record_done(
         ],
     )?;
     Ok(())
+}
+
+/// Records a done tile's noise sums (after [`record_done`], in the same transaction).
+pub fn set_tile_noise(
+    tx: &Transaction<'_>,
+    job: u64,
+    index: u32,
+    noise: &NoiseSums,
+) -> anyhow::Result<()> {
+    tx.execute(
+        "UPDATE tiles SET noise = ?3 WHERE job_id = ?1 AND tile_index = ?2",
+        params![job as i64, index, serde_json::to_string(noise)?],
+    )?;
+    Ok(())
+}
+
+/// The noise sums of a job's done tiles added up (tiles done before they were recorded count
+/// as nothing).
+pub fn tile_noise_totals(conn: &Connection, job: u64) -> anyhow::Result<NoiseSums> {
+    let mut stmt = conn.prepare(
+        "SELECT noise FROM tiles WHERE job_id = ?1 AND state = 'done' AND noise IS NOT NULL",
+    )?;
+    let mut rows = stmt.query([job as i64])?;
+    let mut sums = NoiseSums::default();
+    while let Some(r) = rows.next()? {
+        let json: String = r.get(0)?;
+        sums.add(&serde_json::from_str(&json)?);
+    }
+    Ok(sums)
+}
+
+/// Records a done job's noise sums (before its tile rows are deleted).
+pub fn set_job_noise(tx: &Transaction<'_>, job: u64, noise: &NoiseSums) -> anyhow::Result<()> {
+    tx.execute(
+        "UPDATE jobs SET noise = ?2 WHERE id = ?1",
+        params![job as i64, serde_json::to_string(noise)?],
+    )?;
+    Ok(())
+}
+
+/// A done job's recorded noise sums, if any.
+pub fn job_noise(conn: &Connection, job: u64) -> anyhow::Result<Option<NoiseSums>> {
+    let json: Option<String> =
+        conn.query_row("SELECT noise FROM jobs WHERE id = ?1", [job as i64], |r| {
+            r.get(0)
+        })?;
+    Ok(json.map(|j| serde_json::from_str(&j)).transpose()?)
 }
 
 /// Records that `worker` failed tile `index` of `job`, and returns the tile to the queue.

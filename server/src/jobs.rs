@@ -16,6 +16,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use rusqlite::Connection;
+use spindle_common::noise::NoiseSums;
 use spindle_common::protocol::{
     EventKind, JobInfo, JobSpec, JobState, LOST_WORKERS_LISTED_S, RECENT_TILE_ERRORS, SubmitJob,
     THROUGHPUT_WINDOW_S, TileError, WorkerInfo, WorkerState, format_labels,
@@ -146,6 +147,8 @@ pub struct Job {
     pub tiles_done: u32,
     /// Sum of the finished tiles' statistics.
     pub stats: RenderStats,
+    /// Sum of the finished tiles' noise sums ([`JobInfo::relative_error`]).
+    pub noise: NoiseSums,
     /// Tile → workers that failed it.
     pub failed_by: HashMap<u32, BTreeSet<u64>>,
     /// Worker → tiles of this job it failed.
@@ -229,6 +232,7 @@ impl Job {
             leased: BTreeSet::new(),
             tiles_done: 0,
             stats: RenderStats::default(),
+            noise: NoiseSums::default(),
             failed_by: HashMap::new(),
             strikes: HashMap::new(),
             failures: 0,
@@ -296,6 +300,7 @@ impl Job {
             workers_eligible,
             stats: self.stats,
             provenance: self.provenance.as_deref().cloned(),
+            relative_error: self.noise.relative_error(),
         }
     }
 
@@ -330,6 +335,7 @@ impl Job {
         self.leased = BTreeSet::new();
         self.tiles_done = 0;
         self.stats = RenderStats::default();
+        self.noise = db::tile_noise_totals(db, self.id)?;
         for (index, stored) in db::load_tiles(db, self.id)? {
             let Some(tile) = self.tiles.get_mut(index as usize) else {
                 anyhow::bail!("job {}: stored tile {index} out of range", self.id);
@@ -436,9 +442,14 @@ impl Ledger {
                 };
                 job.tiles_done = done;
                 job.stats = stats;
+                job.noise = match db::job_noise(&db, row.id)? {
+                    Some(noise) => noise,
+                    None => db::tile_noise_totals(&db, row.id)?,
+                };
                 if job.state == JobState::Done && row.totals.is_none() {
                     // Done before totals were recorded: its tile rows are not needed.
                     let tx = db.transaction()?;
+                    db::set_job_noise(&tx, row.id, &job.noise)?;
                     db::settle_done_job(&tx, row.id, done, &stats, None)?;
                     tx.commit()?;
                 }
@@ -1055,9 +1066,10 @@ impl Ledger {
             return Ok(());
         }
         let now = now_ms();
-        let (started, done, stats) = (job.started_ms, job.tiles_done, job.stats);
+        let (started, done, stats, noise) = (job.started_ms, job.tiles_done, job.stats, job.noise);
         let tx = self.db.transaction()?;
         db::set_job_state(&tx, id, JobState::Done, None, started, Some(now))?;
+        db::set_job_noise(&tx, id, &noise)?;
         db::settle_done_job(&tx, id, done, &stats, Some(image_sha256))?;
         tx.commit()?;
         let job = self.job_mut(id)?;
@@ -1082,6 +1094,7 @@ impl Ledger {
         }
         tx.commit()?;
         let (_, stats) = db::tile_totals(&self.db, id)?;
+        let noise = db::tile_noise_totals(&self.db, id)?;
         let at_ms = now_ms();
         let job = self.job_mut(id)?;
         for (index, why) in damaged {
@@ -1102,6 +1115,7 @@ impl Ledger {
             });
         }
         job.stats = stats;
+        job.noise = noise;
         job.assembling = false;
         Ok(())
     }

@@ -24,6 +24,7 @@
 //!   that may take a job's tiles count when judging whether it is stuck: a job no connected
 //!   worker is eligible for waits (its `workers_eligible` is 0), like a job with no worker.
 
+use spindle_common::noise::NoiseSums;
 use spindle_common::protocol::{
     EventKind, Heartbeat, HeartbeatAck, JobState, Lease, TileFailure, TileOutcome, TileUpload,
 };
@@ -407,8 +408,10 @@ impl Ledger {
             (None, Some(p)) => Some(p.clone()),
             _ => None,
         };
+        let noise = NoiseSums::of_tile(&upload.pixels);
         let tx = self.db.transaction()?;
         db::record_done(&tx, id, index, upload)?;
+        db::set_tile_noise(&tx, id, index, &noise)?;
         if let Some(p) = &provenance {
             db::set_provenance(
                 &tx,
@@ -433,6 +436,7 @@ impl Ledger {
         job.leased.remove(&index);
         job.tiles_done += 1;
         job.stats.add(&upload.pixels.stats);
+        job.noise.add(&noise);
         let seconds = job.tiles[index as usize]
             .leased_at
             .map(|at| at.elapsed().as_secs_f64());

@@ -11,6 +11,29 @@ use spindle_tests::{
 /// The longest any test here may take before it fails by itself.
 const TEST_TIMEOUT: Duration = Duration::from_secs(150);
 
+/// The image's estimated relative RMS error computed here from its layers, independently of
+/// the coordinator's running sums: `sqrt(Σ stderr² / Σ total²)` over every pixel and channel.
+fn noise_of(image: &spindle_common::image::Image) -> f64 {
+    let (mut stderr_sq, mut total_sq) = (0.0f64, 0.0f64);
+    for i in 0..image.total.len() {
+        stderr_sq += f64::from(image.stderr[i]).powi(2);
+        total_sq += f64::from(image.total[i]).powi(2);
+    }
+    (stderr_sq / total_sq).sqrt()
+}
+
+/// The job's `relative_error` is the one its EXR's layers give (to rounding: the sums add in
+/// another order), and a real noise level (the 2–12 spp test renders are noisy, not converged).
+fn check_noise(done: &spindle_common::protocol::JobInfo, image: &spindle_common::image::Image) {
+    let expected = noise_of(image);
+    let reported = done.relative_error.expect("a done job reports its noise");
+    assert!(
+        (reported - expected).abs() <= 1e-9 * expected,
+        "reported {reported}, the EXR's layers give {expected}"
+    );
+    assert!(0.001 < expected && expected < 1.0, "{expected}");
+}
+
 /// Runs a test body with [`TEST_TIMEOUT`].
 async fn bounded(body: impl Future<Output = anyhow::Result<()>>) {
     match tokio::time::timeout(TEST_TIMEOUT, body).await {
@@ -35,6 +58,7 @@ async fn two_workers_render_a_job_bit_identical_to_one_process() {
         let done = farm.wait_done(job.id, Duration::from_secs(120)).await?;
         let image = farm.image(job.id).await?;
         assert_bit_identical(&image, &reference);
+        check_noise(&done, &image);
 
         // Every tile counted once: the coordinator's summed statistics hold exactly one camera
         // ray per pixel sample.
@@ -122,7 +146,11 @@ async fn the_coordinator_killed_and_restarted_mid_job_loses_and_doubles_nothing(
         farm.start_server().await?;
 
         let done = farm.wait_done(job.id, Duration::from_secs(120)).await?;
-        assert_bit_identical(&farm.image(job.id).await?, &reference);
+        let image = farm.image(job.id).await?;
+        assert_bit_identical(&image, &reference);
+        // The noise of the tiles done before the restart is restored with them.
+        assert!(before.relative_error.is_some(), "{before:?}");
+        check_noise(&done, &image);
         assert_eq!(done.tiles_done, total);
         // No tile counted twice (nor lost): exactly one camera ray per pixel sample.
         assert_eq!(done.stats.camera_rays, 48 * 32 * 12, "{}", farm.logs());

@@ -386,6 +386,17 @@ fn film_values_are_checked() {
             "must be in (0, 1)",
         );
     }
+    let mut film = json!({"width": 8, "height": 8, "spp": 256, "time_budget_s": 60});
+    assert!(with("/film", film.clone()).is_ok());
+    for bad in [json!(0), json!(-1), json!(1e9)] {
+        film["time_budget_s"] = bad;
+        rejects(
+            "/film",
+            film.clone(),
+            "film.time_budget_s",
+            "must be in (0, ",
+        );
+    }
 }
 
 #[test]

@@ -1,0 +1,132 @@
+//! Progressive passes (`film.time_budget_s`): a render stopped after `k` passes is, bit for bit,
+//! the one-pass render of `film.spp` = `k · PASS_SPP` through the tile driver — which is what
+//! lets `spindle render --workers 0 --no-time-budget --spp N` reproduce a budgeted image.
+
+mod support;
+
+use glam::DVec3;
+use serde_json::json;
+use spindle_common::image::Image;
+use spindle_common::tile::TileRect;
+use spindle_render::{Assets, PASS_SPP, Scene, render_frame, render_frame_passes};
+use support::box_obj;
+
+/// A diffuse floor under a sphere light (a penumbra behind a box) and a glass sphere's single
+/// scattering, 10 × 7 pixels: noisy enough that adaptive pixels stop after different batches.
+fn scene(spp: u32, target_error: Option<f64>) -> Scene {
+    let floor = box_obj(
+        DVec3::new(-10.0, -10.0, -1.0),
+        DVec3::new(10.0, 10.0, 0.0),
+        false,
+    );
+    let blocker = box_obj(
+        DVec3::new(-0.2, -3.0, 0.0),
+        DVec3::new(3.0, 3.0, 1.5),
+        false,
+    );
+    let assets = Assets::from([
+        ("floor.obj".to_string(), floor.into_bytes()),
+        ("blocker.obj".to_string(), blocker.into_bytes()),
+    ]);
+    let desc = serde_json::from_value(json!({
+        "camera": {"position": [-1.0, 0.0, 6.0], "look_at": [-1.0, 0.0, 0.0], "fov_y": 30},
+        "film": {"width": 10, "height": 7, "spp": spp, "seed": 5, "target_error": target_error,
+                 "time_budget_s": 1.0},
+        "lights": [{"type": "sphere", "center": [0.0, 0.0, 3.0], "radius": 0.6,
+                    "radiance": [10, 10, 10]}],
+        "objects": [
+            {"shape": {"type": "obj", "path": "floor.obj"},
+             "material": {"type": "diffuse", "reflectance": [0.7, 0.7, 0.7]}},
+            {"shape": {"type": "obj", "path": "blocker.obj"},
+             "material": {"type": "diffuse", "reflectance": [0.2, 0.2, 0.2]}},
+            {"shape": {"type": "icosphere", "radius": 0.5, "subdivisions": 1},
+             "transform": {"translate": [-1.5, 0.0, 0.8]},
+             "material": {"type": "dielectric", "eta": 1.5,
+                          "medium": {"sigma_t": [1, 1, 1], "albedo": [0.9, 0.9, 0.9]}}}
+        ]
+    }))
+    .unwrap();
+    Scene::build(&desc, &assets).unwrap()
+}
+
+/// The sub-rectangle rendered: not at the origin, so the pixel coordinates are checked too.
+const REGION: TileRect = TileRect {
+    x: 1,
+    y: 2,
+    width: 8,
+    height: 5,
+};
+
+fn same_bits(a: &Image, b: &Image, what: &str) {
+    for (layer, (x, y)) in a.layers().iter().zip(b.layers()).enumerate() {
+        let differ = x
+            .iter()
+            .zip(y)
+            .filter(|(p, q)| p.to_bits() != q.to_bits())
+            .count();
+        assert_eq!(differ, 0, "{what}: layer {layer}: {differ} values differ");
+    }
+}
+
+/// Stopped after 1, 2 and 3 passes, with and without adaptive sampling: the image and the
+/// statistics are those of `render_frame` at 16, 32, 48 spp.
+#[test]
+fn stopping_after_k_passes_is_rendering_k_times_pass_spp() {
+    for target_error in [None, Some(0.08)] {
+        for stop_after in 1..=3u32 {
+            let budgeted = scene(200, target_error);
+            let mut seen = Vec::new();
+            let (image, stats, report) = render_frame_passes(&budgeted, REGION, &mut |r| {
+                seen.push(r.passes);
+                r.passes < stop_after
+            })
+            .unwrap();
+            assert_eq!(seen, (1..=stop_after).collect::<Vec<_>>());
+            assert_eq!(report.passes, stop_after);
+            assert_eq!(report.spp, stop_after * PASS_SPP);
+            let reference = scene(stop_after * PASS_SPP, target_error);
+            let (expected, expected_stats) = render_frame(&reference, REGION, &|_| {}).unwrap();
+            let what = format!("target {target_error:?}, {stop_after} passes");
+            same_bits(&image, &expected, &what);
+            assert_eq!(stats, expected_stats, "{what}");
+            // Every camera ray is a sample taken: without a target every pixel took them all.
+            if target_error.is_none() {
+                let pixels = REGION.pixel_count() as u64;
+                assert_eq!(stats.camera_rays, pixels * u64::from(report.spp), "{what}");
+            }
+        }
+    }
+}
+
+/// Left to run, the passes end at `film.spp` even when it is not a multiple of the pass size,
+/// without asking the caller after the last pass, and the image is the one-pass render's.
+#[test]
+fn passes_end_at_spp() {
+    let spp = 2 * PASS_SPP + 5;
+    let budgeted = scene(spp, None);
+    let mut asked = 0;
+    let (image, _, report) = render_frame_passes(&budgeted, REGION, &mut |r| {
+        asked += 1;
+        assert!(r.pixels_sampling == REGION.pixel_count(), "{r:?}");
+        true
+    })
+    .unwrap();
+    assert_eq!(
+        (report.passes, report.spp, report.pixels_sampling),
+        (3, spp, 0)
+    );
+    assert_eq!(asked, 2);
+    let (expected, _) = render_frame(&scene(spp, None), REGION, &|_| {}).unwrap();
+    same_bits(&image, &expected, "to spp");
+}
+
+/// With a target every pixel meets early (a loose 0.9), the passes stop by themselves once no
+/// pixel samples any more, far below `spp`.
+#[test]
+fn passes_end_when_every_pixel_met_the_target() {
+    let budgeted = scene(4096, Some(0.9));
+    let (_, stats, report) = render_frame_passes(&budgeted, REGION, &mut |_| true).unwrap();
+    assert_eq!(report.pixels_sampling, 0);
+    assert!(report.spp < 4096, "{report:?}");
+    assert!(stats.camera_rays <= REGION.pixel_count() as u64 * u64::from(report.spp));
+}
