@@ -147,6 +147,7 @@ pub struct Film {
     /// that of the complete passes, which is the image of `spp` = the samples reached, recorded
     /// in the header. `None`: one pass to `spp` (or `target_error`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(exclusive_minimum = 0.0, exclusive_maximum = 604800.0)]
     pub time_budget_s: Option<f64>,
 }
 
