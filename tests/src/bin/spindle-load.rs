@@ -107,7 +107,11 @@ struct Workload {
 
 fn workload(size: u32, tile: u32, scatter_spp: Option<u32>) -> Result<Workload> {
     let (mut scene, assets) = test_scene(size, size, scatter_spp.unwrap_or(1));
-    let method = if scatter_spp.is_some() { "auto" } else { "none" };
+    let method = if scatter_spp.is_some() {
+        "auto"
+    } else {
+        "none"
+    };
     scene["integrator"]["single_scatter"]["method"] = serde_json::json!(method);
     let desc = serde_json::from_value(scene.clone())?;
     let built = Scene::build(&desc, &assets).map_err(|e| anyhow!("the load scene: {e}"))?;
