@@ -107,6 +107,7 @@ fn workload(size: u32) -> Result<Workload> {
             requires: Default::default(),
             name: Some("load".into()),
             submitter: None,
+            crop: None,
         },
         assets: assets.into_iter().collect(),
         tiles,
