@@ -527,19 +527,26 @@ fn a_window_must_lie_inside_its_film() {
     ));
 }
 
+/// A window's position and size.
+type Window = ((i32, i32), (usize, usize));
+
 /// The display window and data window of an EXR as the `exr` crate reads its header:
 /// `(display position, display size, data position, data size)`.
-fn exr_windows(bytes: &[u8]) -> ((i32, i32), (usize, usize), (i32, i32), (usize, usize)) {
+fn exr_windows(bytes: &[u8]) -> (Window, Window) {
     let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false).unwrap();
     assert_eq!(meta.headers.len(), 1);
     let header = &meta.headers[0];
     let display = header.shared_attributes.display_window;
     let data = header.data_window();
     (
-        (display.position.x(), display.position.y()),
-        (display.size.width(), display.size.height()),
-        (data.position.x(), data.position.y()),
-        (data.size.width(), data.size.height()),
+        (
+            (display.position.x(), display.position.y()),
+            (display.size.width(), display.size.height()),
+        ),
+        (
+            (data.position.x(), data.position.y()),
+            (data.size.width(), data.size.height()),
+        ),
     )
 }
 
@@ -555,7 +562,7 @@ fn a_crop_is_the_data_window_inside_the_display_window_and_round_trips() {
         .attributes
         .insert("spindle.region".into(), "5,3,8,4".into());
     let bytes = image.to_exr_bytes().unwrap();
-    assert_eq!(exr_windows(&bytes), ((0, 0), (20, 10), (5, 3), (8, 4)));
+    assert_eq!(exr_windows(&bytes), (((0, 0), (20, 10)), ((5, 3), (8, 4))));
     let back = Image::from_exr_bytes(&bytes).unwrap();
     assert_eq!(back, image);
     for (a, b) in back.layers().iter().zip(image.layers()) {
@@ -565,7 +572,7 @@ fn a_crop_is_the_data_window_inside_the_display_window_and_round_trips() {
     // A full frame: both windows are the frame, as before crops existed.
     let full = patterned(6, 4);
     let bytes = full.to_exr_bytes().unwrap();
-    assert_eq!(exr_windows(&bytes), ((0, 0), (6, 4), (0, 0), (6, 4)));
+    assert_eq!(exr_windows(&bytes), (((0, 0), (6, 4)), ((0, 0), (6, 4))));
     assert_eq!(
         Image::from_exr_bytes(&bytes).unwrap().placement,
         full.placement
