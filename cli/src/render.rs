@@ -52,7 +52,8 @@ pub struct RenderArgs {
     #[arg(long, value_name = "X,Y,W,H", value_parser = parse_crop)]
     pub crop: Option<TileRect>,
     /// Render only pixel `x,y` and print its value, for replaying one pixel (needs
-    /// `--workers 0`; with `-o` the one-pixel image is written too).
+    /// `--workers 0`; with `-o` the one-pixel image is written too, a 1x1 data window in the
+    /// film's display window).
     #[arg(long, value_parser = parse_pixel)]
     pub pixel: Option<(u32, u32)>,
     /// Tile edge in pixels on the local farm.
