@@ -5,17 +5,18 @@
 //! By default through an embedded local farm ([`crate::local_farm`]: a coordinator and N
 //! workers in this process, the same path a job takes on many machines); `--workers 0` renders
 //! in this process without the farm ([`spindle_render::render_frame`]), the single-process
-//! reference, which also offers `--crop` and `--pixel`. Both write the same pixels and the same
-//! header attributes.
+//! reference, which also offers `--pixel`. Both write the same pixels and the same header
+//! attributes, for the whole film or for a `--crop` window (the EXR's data window, inside the
+//! film's display window).
 
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result, anyhow, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use spindle_common::image::Image;
-use spindle_common::protocol::DEFAULT_TILE_SIZE;
+use spindle_common::protocol::{DEFAULT_TILE_SIZE, check_crop};
 use spindle_common::provenance::Provenance;
 use spindle_common::scene::SceneDescription;
 use spindle_common::stats::RenderStats;
@@ -49,12 +50,15 @@ pub struct RenderArgs {
     /// Random seed (overrides `film.seed`).
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Render only this rectangle `x,y,w,h` of the image (the rest stays black; needs
-    /// `--workers 0`).
-    #[arg(long, value_parser = parse_crop)]
+    /// Render only the window `x,y,w,h` of the film (column, row of its top-left pixel, width,
+    /// height), on the local farm or with `--workers 0`: the EXR holds the window as its data
+    /// window inside the film's display window (as pbrt-v4 writes a crop), the PNG preview the
+    /// window alone. Pixels equal those of a full render.
+    #[arg(long, value_name = "X,Y,W,H", value_parser = parse_crop)]
     pub crop: Option<TileRect>,
     /// Render only pixel `x,y` and print its value, for replaying one pixel (needs
-    /// `--workers 0`; with `-o` the one-pixel image is written too).
+    /// `--workers 0`; with `-o` the one-pixel image is written too, a 1x1 data window in the
+    /// film's display window).
     #[arg(long, value_parser = parse_pixel)]
     pub pixel: Option<(u32, u32)>,
     /// Tile edge in pixels on the local farm.
@@ -106,7 +110,9 @@ fn parse_numbers<const N: usize>(text: &str) -> Result<[u32; N], String> {
     Ok(out)
 }
 
-fn parse_crop(text: &str) -> Result<TileRect, String> {
+/// Parses `--crop x,y,w,h` (`render` and `submit`); whether it fits the film is checked once
+/// the scene is read ([`check_crop`]).
+pub fn parse_crop(text: &str) -> Result<TileRect, String> {
     let [x, y, width, height] = parse_numbers::<4>(text)?;
     if width == 0 || height == 0 {
         return Err("crop width and height must be > 0".into());
@@ -134,8 +140,8 @@ pub async fn run(args: &RenderArgs) -> Result<()> {
     if workers == 0 {
         return tokio::task::block_in_place(|| in_process(args));
     }
-    if args.crop.is_some() || args.pixel.is_some() {
-        bail!("--crop and --pixel render in this process: add --workers 0");
+    if args.pixel.is_some() {
+        bail!("--pixel renders in this process: add --workers 0");
     }
     on_local_farm(args, workers).await
 }
@@ -183,6 +189,9 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
         );
     }
     let desc = files.desc.clone();
+    if let Some(crop) = &args.crop {
+        check_crop(crop, desc.film.width, desc.film.height).map_err(|e| anyhow!("--{e}"))?;
+    }
     // The workers build the scene again; here it is built once to say the single-scattering plan.
     let provenance = Scene::build(&files.desc, &files.assets)
         .map(|scene| provenance(&scene))
@@ -198,6 +207,7 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
             crate::submit::Check::AlreadyBuilt,
             &crate::submit::JobOptions {
                 tile_size: args.tile_size,
+                crop: args.crop,
                 ..Default::default()
             },
         )
@@ -213,11 +223,12 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
     a.insert("spindle.workers".into(), workers.to_string());
     let preview = write_outputs(&image, args)?;
     println!(
-        "rendered {} ({}x{}, {} spp) on a local farm of {workers} workers in {:.2} s \
+        "rendered {} ({}x{}{}, {} spp) on a local farm of {workers} workers in {:.2} s \
          ({} of {} px: {} per worker)",
         args.output()?.display(),
         desc.film.width,
         desc.film.height,
+        describe_crop(args.crop),
         desc.film.spp,
         started.elapsed().as_secs_f64(),
         crate::status::count(result.job.tiles_total, "tile"),
@@ -250,6 +261,9 @@ fn in_process(args: &RenderArgs) -> Result<()> {
         width: summary.width,
         height: summary.height,
     };
+    if let Some(crop) = &args.crop {
+        check_crop(crop, full.width, full.height).map_err(|e| anyhow!("--{e}"))?;
+    }
     let region = match (args.pixel, args.crop) {
         (Some((x, y)), _) => TileRect {
             x,
@@ -260,15 +274,11 @@ fn in_process(args: &RenderArgs) -> Result<()> {
         (None, Some(crop)) => crop,
         (None, None) => full,
     };
-    if region.x as u64 + region.width as u64 > full.width as u64
-        || region.y as u64 + region.height as u64 > full.height as u64
+    if let Some((x, y)) = args.pixel
+        && (x >= full.width || y >= full.height)
     {
         bail!(
-            "the region {},{} {}x{} is outside the {}x{} image",
-            region.x,
-            region.y,
-            region.width,
-            region.height,
+            "--pixel {x},{y} is outside the {}x{} image",
             full.width,
             full.height
         );
@@ -350,14 +360,7 @@ fn in_process(args: &RenderArgs) -> Result<()> {
         args.output()?.display(),
         full.width,
         full.height,
-        if region == full {
-            String::new()
-        } else {
-            format!(
-                ", region {},{} {}x{}",
-                region.x, region.y, region.width, region.height
-            )
-        },
+        describe_crop((region != full).then_some(region)),
         files.desc.film.spp,
         summary.triangles,
         summary.objects,
@@ -400,6 +403,14 @@ fn render_in_passes(
         now + pass_seconds <= budget
     })?;
     Ok(result)
+}
+
+/// `, region x,y WxH` for a window smaller than the film, else nothing.
+fn describe_crop(region: Option<TileRect>) -> String {
+    match region {
+        Some(r) => format!(", region {},{} {}x{}", r.x, r.y, r.width, r.height),
+        None => String::new(),
+    }
 }
 
 /// Says which single-scattering model runs for each object (the `auto` method's choice).

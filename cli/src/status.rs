@@ -72,12 +72,16 @@ pub fn state_label(j: &JobInfo) -> String {
 /// A few lines about one job.
 fn describe(j: &JobInfo) -> String {
     let mut s = format!(
-        "job {} ({}): {}\n  image     {}x{} in tiles of {} px, priority {}\n  tiles     {}/{} done\n  elapsed   {}\n",
+        "job {} ({}): {}\n  image     {}x{}{} in tiles of {} px, priority {}\n  tiles     {}/{} done\n  elapsed   {}\n",
         j.id,
         j.name,
         state_label(j),
         j.width,
         j.height,
+        j.crop.map_or(String::new(), |c| format!(
+            " (crop {},{} {}x{})",
+            c.x, c.y, c.width, c.height
+        )),
         j.tile_size,
         j.priority,
         j.tiles_done,
@@ -161,6 +165,7 @@ mod tests {
             stats: Default::default(),
             provenance: None,
             relative_error: None,
+            crop: None,
         }
     }
 

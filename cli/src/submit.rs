@@ -51,6 +51,11 @@ pub struct SubmitArgs {
     /// Random seed (overrides `film.seed`).
     #[arg(long)]
     pub seed: Option<u64>,
+    /// Render only the window `x,y,w,h` of the film (column, row of its top-left pixel, width,
+    /// height); the job's EXR holds it as its data window inside the film's display window,
+    /// with the pixels `spindle render --workers 0 --crop` writes.
+    #[arg(long, value_name = "X,Y,W,H", value_parser = crate::render::parse_crop)]
+    pub crop: Option<spindle_common::tile::TileRect>,
     /// With --wait: download the final EXR here when the job is done.
     #[arg(short, long, requires = "wait")]
     pub output: Option<std::path::PathBuf>,
@@ -73,6 +78,7 @@ pub async fn run(api: &Api, args: &SubmitArgs) -> Result<()> {
             .clone()
             .or_else(|| std::env::var("USER").ok())
             .filter(|s| !s.is_empty()),
+        crop: args.crop,
     };
     let edit = |scene: &mut SceneDescription| {
         if let Some(spp) = args.spp {
@@ -111,6 +117,8 @@ pub struct JobOptions {
     pub requires: BTreeMap<String, String>,
     pub name: Option<String>,
     pub submitter: Option<String>,
+    /// Only this window of the film ([`SubmitJob::crop`]).
+    pub crop: Option<spindle_common::tile::TileRect>,
 }
 
 /// Reads the scene file and its meshes, uploads the meshes the coordinator lacks, and submits
@@ -125,6 +133,13 @@ pub async fn submit_scene_file(
     let mut files = load_scene(scene_path)?;
     if let Some(edit) = edit {
         edit(&mut files.desc);
+    }
+    // The coordinator checks the crop too (a 400 naming `crop`); here it is refused before
+    // any mesh is uploaded.
+    if let Some(crop) = &options.crop {
+        let film = &files.desc.film;
+        spindle_common::protocol::check_crop(crop, film.width, film.height)
+            .map_err(|e| anyhow::anyhow!("--{e}"))?;
     }
     if check == Check::Build {
         spindle_render::Scene::build(&files.desc, &files.assets)
@@ -167,6 +182,7 @@ pub async fn submit_scene_file(
         requires: options.requires.clone(),
         name: options.name.clone(),
         submitter: options.submitter.clone(),
+        crop: options.crop,
     };
     let key = random_hex()?;
     api.submit(&job, &key)

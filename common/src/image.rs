@@ -1,4 +1,5 @@
-//! The finished image: the four layers of a whole frame, and the files spindle writes.
+//! The finished image: the four layers of a frame or of a window of it (a crop), and the files
+//! spindle writes.
 //!
 //! Tiles arrive from anywhere (the coordinator takes them from workers over the network, so a
 //! tile is untrusted until checked) and are placed into an [`Image`]; the image is then written
@@ -7,6 +8,10 @@
 //! Conventions, stated once:
 //! - Pixels are RGB `f32`, row-major, row 0 at the top, the same layout as
 //!   [`TilePixels`]: sample `(row * width + col) * 3 + channel`.
+//! - An image holds a window of its film ([`Placement`]): the whole film, or a crop. Tiles are
+//!   in film coordinates. In the EXR file the film is the display window and the image the
+//!   data window (OpenEXR's own notion of a crop, as pbrt-v4 writes one), so a viewer shows a
+//!   crop in its place in the frame; the PNG previews hold the window only.
 //! - The EXR file is one part, scanlines in increasing order, ZIP compression (16 lines per
 //!   block), channels `R,G,B` (= `total`), `surface.R/G/B`, `single_scatter.R/G/B` and
 //!   `stderr.R/G/B`, all
@@ -28,15 +33,21 @@ use crate::tile::{LAYER_NAMES, TilePixels, TileRect};
 /// A bad tile, a bad image or a failed read or write.
 #[derive(Debug, thiserror::Error)]
 pub enum ImageError {
-    /// The tile does not lie inside the image.
+    /// The tile does not lie inside the image's window of the film.
     #[error(
-        "tile {rect:?} lies outside the {width}x{height} image (it must satisfy x + width <= \
-         {width} and y + height <= {height})"
+        "tile {rect:?} lies outside the image's window {window:?} of the film (it must \
+         satisfy window.x <= x, x + width <= window.x + window.width, and the same for y)"
     )]
-    TileOutside {
-        rect: TileRect,
-        width: u32,
-        height: u32,
+    TileOutside { rect: TileRect, window: TileRect },
+    /// The image's window does not lie inside its film.
+    #[error(
+        "the window {window:?} is not inside the {film_width}x{film_height} film (x + width \
+         must be <= {film_width} and y + height <= {film_height})"
+    )]
+    WindowOutside {
+        window: TileRect,
+        film_width: u32,
+        film_height: u32,
     },
     /// The tile covers no pixel.
     #[error("tile {rect:?} is empty (width and height must be >= 1)")]
@@ -74,11 +85,26 @@ pub enum ImageError {
 const EXR_PREFIXES: [&str; 4] = ["", "surface.", "single_scatter.", "stderr."];
 const RGB: [&str; 3] = ["R", "G", "B"];
 
-/// A full frame: the four layers of every pixel, and text attributes for the file header.
+/// Where an image's pixels lie in the film they were rendered from: the film's size (the EXR
+/// display window) and the column and row of the image's top-left pixel in it (the origin of
+/// the EXR data window). A full frame is at (0, 0) of a film of its own size.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Placement {
+    pub x: u32,
+    pub y: u32,
+    pub film_width: u32,
+    pub film_height: u32,
+}
+
+/// A window of a frame (the whole frame, or a crop): the four layers of its pixels, where it
+/// lies in the film, and text attributes for the file header.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Image {
+    /// The size of the window (the pixels the layers hold).
     pub width: u32,
     pub height: u32,
+    /// Where the window lies in the film.
+    pub placement: Placement,
     /// `surface + single_scatter`, RGB, row-major.
     pub total: Vec<f32>,
     /// Reflected and transmitted light, RGB, row-major.
@@ -92,17 +118,71 @@ pub struct Image {
 }
 
 impl Image {
-    /// A black `width` × `height` image with no attributes.
+    /// A black full-frame `width` × `height` image with no attributes.
     pub fn new(width: u32, height: u32) -> Image {
         let n = width as usize * height as usize * 3;
         Image {
             width,
             height,
+            placement: Placement {
+                x: 0,
+                y: 0,
+                film_width: width,
+                film_height: height,
+            },
             total: vec![0.0; n],
             surface: vec![0.0; n],
             single_scatter: vec![0.0; n],
             stderr: vec![0.0; n],
             attributes: BTreeMap::new(),
+        }
+    }
+
+    /// A black image of `window`, a rectangle of a `film_width` × `film_height` film, with no
+    /// attributes; tiles are then inserted in film coordinates. The window must lie inside the
+    /// film.
+    pub fn window(
+        film_width: u32,
+        film_height: u32,
+        window: TileRect,
+    ) -> Result<Image, ImageError> {
+        let image = Image {
+            placement: Placement {
+                x: window.x,
+                y: window.y,
+                film_width,
+                film_height,
+            },
+            ..Image::new(window.width, window.height)
+        };
+        image.check_placement()?;
+        Ok(image)
+    }
+
+    /// The rectangle of the film this image holds, in film coordinates.
+    pub fn rect(&self) -> TileRect {
+        TileRect {
+            x: self.placement.x,
+            y: self.placement.y,
+            width: self.width,
+            height: self.height,
+        }
+    }
+
+    /// Checks that the window lies inside the film.
+    fn check_placement(&self) -> Result<(), ImageError> {
+        let p = self.placement;
+        // u64 so that x + width cannot wrap around.
+        let inside = u64::from(p.x) + u64::from(self.width) <= u64::from(p.film_width)
+            && u64::from(p.y) + u64::from(self.height) <= u64::from(p.film_height);
+        if inside {
+            Ok(())
+        } else {
+            Err(ImageError::WindowOutside {
+                window: self.rect(),
+                film_width: p.film_width,
+                film_height: p.film_height,
+            })
         }
     }
 
@@ -130,9 +210,10 @@ impl Image {
         ]
     }
 
-    /// Copies a rendered tile into its place. The tile is checked first (it may come from the
-    /// network): it must be non-empty, lie inside the image, and carry exactly three samples
-    /// per pixel in each layer; otherwise the image is left unchanged.
+    /// Copies a rendered tile (in film coordinates) into its place. The tile is checked first
+    /// (it may come from the network): it must be non-empty, lie inside the image's window, and
+    /// carry exactly three samples per pixel in each layer; otherwise the image is left
+    /// unchanged.
     pub fn insert_tile(&mut self, tile: &TilePixels) -> Result<(), ImageError> {
         self.check_buffers()?;
         let rect = tile.rect;
@@ -140,15 +221,18 @@ impl Image {
             return Err(ImageError::EmptyTile { rect });
         }
         // u64 so that a hostile x + width cannot wrap around.
-        let inside = u64::from(rect.x) + u64::from(rect.width) <= u64::from(self.width)
-            && u64::from(rect.y) + u64::from(rect.height) <= u64::from(self.height);
+        let window = self.rect();
+        let inside = window.x <= rect.x
+            && window.y <= rect.y
+            && u64::from(rect.x) + u64::from(rect.width)
+                <= u64::from(window.x) + u64::from(window.width)
+            && u64::from(rect.y) + u64::from(rect.height)
+                <= u64::from(window.y) + u64::from(window.height);
         if !inside {
-            return Err(ImageError::TileOutside {
-                rect,
-                width: self.width,
-                height: self.height,
-            });
+            return Err(ImageError::TileOutside { rect, window });
         }
+        // The tile's origin in the image's own pixels.
+        let (left, top) = ((rect.x - window.x) as usize, (rect.y - window.y) as usize);
         let expected = rect.pixel_count() * 3;
         for (layer, samples) in LAYER_NAMES.iter().zip(tile.layers()) {
             if samples.len() != expected {
@@ -164,7 +248,7 @@ impl Image {
         let row_len = rect.width as usize * 3;
         for (dst, src) in self.layers_mut().into_iter().zip(tile.layers()) {
             for row in 0..rect.height as usize {
-                let start = ((rect.y as usize + row) * image_width + rect.x as usize) * 3;
+                let start = ((top + row) * image_width + left) * 3;
                 dst[start..start + row_len].copy_from_slice(&src[row * row_len..][..row_len]);
             }
         }
@@ -209,14 +293,25 @@ impl Image {
                 height: self.height,
             });
         }
+        self.check_placement()?;
+        if i32::try_from(self.placement.film_width).is_err()
+            || i32::try_from(self.placement.film_height).is_err()
+        {
+            // EXR windows are i32 rectangles.
+            return Err(ImageError::WindowOutside {
+                window: self.rect(),
+                film_width: self.placement.film_width,
+                film_height: self.placement.film_height,
+            });
+        }
         self.check_buffers()
     }
 
     /// The complete EXR file as bytes (see the module documentation for its layout).
     pub fn to_exr_bytes(&self) -> Result<Vec<u8>, ImageError> {
         use exr::prelude::{
-            AnyChannel, AnyChannels, Blocks, Compression, Encoding, FlatSamples, Layer,
-            LayerAttributes, LineOrder, WritableImage,
+            AnyChannel, AnyChannels, Blocks, Compression, Encoding, FlatSamples, ImageAttributes,
+            IntegerBounds, Layer, LayerAttributes, LineOrder, Vec2, WritableImage,
         };
 
         self.check_writable()?;
@@ -225,7 +320,11 @@ impl Image {
             problem: e.to_string(),
         };
 
-        let mut attributes = LayerAttributes::default();
+        // The data window starts at the image's place in the film (check_writable: both fit i32).
+        let mut attributes = LayerAttributes {
+            layer_position: Vec2(self.placement.x as i32, self.placement.y as i32),
+            ..LayerAttributes::default()
+        };
         for (name, value) in &self.attributes {
             let (name, value) = exr_attribute(name, value)?;
             attributes.other.insert(name, value);
@@ -256,8 +355,14 @@ impl Image {
             encoding,
             AnyChannels::sort(channels),
         );
+        // The display window is the film, at the origin; for a full frame it equals the data
+        // window, as `Image::from_layer` would write it.
+        let film = IntegerBounds::from_dimensions((
+            self.placement.film_width as usize,
+            self.placement.film_height as usize,
+        ));
         let mut out = Cursor::new(Vec::new());
-        exr::prelude::Image::from_layer(layer)
+        exr::prelude::Image::new(ImageAttributes::new(film), layer)
             .write()
             .to_buffered(&mut out)
             .map_err(exr_error)?;
@@ -281,7 +386,8 @@ impl Image {
 
     /// Reads an EXR file written by [`Image::write_exr`] (or any one-part EXR with the same
     /// twelve float channels; without the `stderr` ones, as spindle wrote before that layer,
-    /// `stderr` is 0), with its text header attributes.
+    /// `stderr` is 0), with its text header attributes and its place in the film (the data
+    /// window inside the display window).
     pub fn from_exr_bytes(bytes: &[u8]) -> Result<Image, ImageError> {
         read_exr_from(bytes, "(in memory)")
     }
@@ -506,7 +612,26 @@ fn read_exr_from(bytes: &[u8], path: &str) -> Result<Image, ImageError> {
             "image size {width}x{height} is too large"
         )));
     };
+    // The data window's place in the display window (the film).
+    let display = file.attributes.display_window;
+    let position = layer.attributes.layer_position;
+    let placement = (|| {
+        Some(Placement {
+            x: u32::try_from(position.x().checked_sub(display.position.x())?).ok()?,
+            y: u32::try_from(position.y().checked_sub(display.position.y())?).ok()?,
+            film_width: u32::try_from(display.size.width()).ok()?,
+            film_height: u32::try_from(display.size.height()).ok()?,
+        })
+    })();
     let mut image = Image::new(w, h);
+    image.placement = placement.ok_or_else(|| {
+        exr_error("the data window does not start inside the display window".into())
+    })?;
+    image.check_placement().map_err(|e| {
+        exr_error(format!(
+            "the data window is not inside the display window: {e}"
+        ))
+    })?;
     let pixels = width * height;
 
     for (prefix, layer_name) in EXR_PREFIXES.iter().zip(LAYER_NAMES) {

@@ -148,6 +148,34 @@ pub struct SubmitJob {
         pattern = "^[^\\x00-\\x1f\\x7f-\\x9f]*$"
     )]
     pub submitter: Option<String>,
+    /// Render only this window of the film (`spindle submit --crop x,y,w,h`), in film pixels;
+    /// the job's EXR then holds the window as its data window inside the film's display
+    /// window. It must be non-empty and inside the film ([`check_crop`]). Absent: the whole
+    /// film.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub crop: Option<TileRect>,
+}
+
+/// Checks a crop window against the film it cuts: at least one pixel, and inside the
+/// `width` × `height` film. The error names the field `crop`.
+pub fn check_crop(crop: &TileRect, width: u32, height: u32) -> Result<(), String> {
+    if crop.width == 0 || crop.height == 0 {
+        return Err(format!(
+            "crop: must cover at least one pixel (width and height >= 1), got {}x{}",
+            crop.width, crop.height
+        ));
+    }
+    // u64 so that a hostile x + width cannot wrap around.
+    let right = u64::from(crop.x) + u64::from(crop.width);
+    let bottom = u64::from(crop.y) + u64::from(crop.height);
+    if right > u64::from(width) || bottom > u64::from(height) {
+        return Err(format!(
+            "crop: the window {},{} {}x{} is not inside the {width}x{height} film (x + width \
+             must be <= {width} and y + height <= {height})",
+            crop.x, crop.y, crop.width, crop.height
+        ));
+    }
+    Ok(())
 }
 
 /// Longest job name or submitter, in characters.
@@ -285,6 +313,10 @@ pub struct JobInfo {
     /// black is in.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub relative_error: Option<f64>,
+    /// The window of the film the job renders ([`SubmitJob::crop`]); absent: the whole film
+    /// (`width` × `height`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub crop: Option<TileRect>,
 }
 
 /// How many tile failures a [`JobInfo`] keeps (the newest).
@@ -680,8 +712,8 @@ pub struct LeaseRequest {
 #[serde(deny_unknown_fields)]
 pub struct Lease {
     pub job_id: u64,
-    /// The tile's index in the job's centre-first order
-    /// ([`crate::tile::split_centre_first`] of the film size and the job's tile size).
+    /// The tile's index in the job's centre-first order ([`JobSpec::tiles`]: the film, or the
+    /// job's crop window, split by the job's tile size).
     pub tile_index: u32,
     pub rect: TileRect,
     /// Grows with every lease of this tile; quote it in heartbeats, uploads and failures.
@@ -699,6 +731,28 @@ pub struct JobSpec {
     #[schema(value_type = BTreeMap<String, Blake3Hash>)]
     pub assets: BTreeMap<String, String>,
     pub tile_size: u32,
+    /// Only this window of the film is rendered ([`SubmitJob::crop`]); absent: the whole film.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub crop: Option<TileRect>,
+}
+
+impl JobSpec {
+    /// The rectangle of the film the job renders: the crop, or the whole film at (0, 0).
+    pub fn window(&self) -> TileRect {
+        self.crop.unwrap_or(TileRect {
+            x: 0,
+            y: 0,
+            width: self.scene.film.width,
+            height: self.scene.film.height,
+        })
+    }
+
+    /// The job's tiles by index, in film coordinates: [`crate::tile::split_window_centre_first`]
+    /// of [`JobSpec::window`] and the tile size. Leases, the tile map and assembly all number
+    /// tiles this way.
+    pub fn tiles(&self) -> Vec<TileRect> {
+        crate::tile::split_window_centre_first(self.window(), self.tile_size)
+    }
 }
 
 /// "I am still rendering this tile."
@@ -924,6 +978,68 @@ mod tests {
             let state = JobState::parse(s).unwrap();
             assert_eq!(serde_json::to_value(state).unwrap(), s);
         }
+    }
+
+    #[test]
+    fn a_crop_must_be_non_empty_and_inside_the_film_and_its_error_names_crop() {
+        let rect = |x, y, width, height| TileRect {
+            x,
+            y,
+            width,
+            height,
+        };
+        // The film is 40 x 24: its last pixel is (39, 23).
+        for ok in [rect(0, 0, 40, 24), rect(39, 23, 1, 1), rect(10, 5, 30, 19)] {
+            assert_eq!(check_crop(&ok, 40, 24), Ok(()), "{ok:?}");
+        }
+        for bad in [
+            rect(0, 0, 0, 5),
+            rect(3, 3, 5, 0),
+            rect(0, 0, 41, 24),
+            rect(0, 0, 40, 25),
+            rect(40, 0, 1, 1),
+            rect(u32::MAX, 0, 2, 1),
+            rect(0, u32::MAX, 1, u32::MAX),
+        ] {
+            let err = check_crop(&bad, 40, 24).unwrap_err();
+            assert!(err.starts_with("crop: "), "{bad:?}: {err}");
+        }
+    }
+
+    #[test]
+    fn a_job_without_a_crop_reads_and_writes_as_before_and_its_window_is_the_film() {
+        let scene = r#"{"camera":{"position":[0,0,5],"look_at":[0,0,0],"fov_y":40},
+                        "film":{"width":8,"height":6}}"#;
+        let spec: JobSpec = serde_json::from_str(&format!(
+            r#"{{"scene":{scene},"assets":{{}},"tile_size":4}}"#
+        ))
+        .unwrap();
+        assert_eq!(spec.crop, None);
+        assert!(!serde_json::to_string(&spec).unwrap().contains("crop"));
+        assert_eq!(
+            spec.window(),
+            TileRect {
+                x: 0,
+                y: 0,
+                width: 8,
+                height: 6
+            }
+        );
+        assert_eq!(spec.tiles().len(), 4);
+        let cropped = JobSpec {
+            crop: Some(TileRect {
+                x: 5,
+                y: 1,
+                width: 3,
+                height: 5,
+            }),
+            ..spec
+        };
+        let tiles = cropped.tiles();
+        // Columns 5..8 and rows 1..6 in 4-px tiles: rows 1..5 and 5..6.
+        assert_eq!(tiles.len(), 2);
+        assert!(tiles.iter().all(|t| t.x == 5 && t.width == 3));
+        assert_eq!(tiles.iter().map(|t| t.height).sum::<u32>(), 5);
     }
 
     #[test]

@@ -131,9 +131,64 @@ pub fn split_centre_first(width: u32, height: u32, size: u32) -> Vec<TileRect> {
     tiles
 }
 
+/// The tiles of `window`, a rectangle of the film, in film coordinates: the window split as
+/// [`split_centre_first`] splits an image of its size (so centre-first about the window's
+/// centre), each tile moved by the window's origin. A crop (`--crop`) is rendered as these
+/// tiles, on the farm and in process alike; a full frame's window is the film at (0, 0).
+pub fn split_window_centre_first(window: TileRect, size: u32) -> Vec<TileRect> {
+    split_centre_first(window.width, window.height, size)
+        .into_iter()
+        .map(|t| TileRect {
+            x: window.x + t.x,
+            y: window.y + t.y,
+            ..t
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn window_tiles_cover_exactly_the_window_in_film_coordinates() {
+        let (film_w, film_h) = (50u32, 40u32);
+        let window = TileRect {
+            x: 7,
+            y: 11,
+            width: 30,
+            height: 17,
+        };
+        let mut hits = vec![0u32; (film_w * film_h) as usize];
+        for t in split_window_centre_first(window, 8) {
+            for row in t.y..t.y + t.height {
+                for col in t.x..t.x + t.width {
+                    hits[(row * film_w + col) as usize] += 1;
+                }
+            }
+        }
+        for row in 0..film_h {
+            for col in 0..film_w {
+                let inside = (7..37).contains(&col) && (11..28).contains(&row);
+                assert_eq!(
+                    hits[(row * film_w + col) as usize],
+                    u32::from(inside),
+                    "{col},{row}"
+                );
+            }
+        }
+        // The window at the origin of a film of its size is the whole frame's tiling.
+        let full = TileRect {
+            x: 0,
+            y: 0,
+            width: 33,
+            height: 65,
+        };
+        assert_eq!(
+            split_window_centre_first(full, 16),
+            split_centre_first(33, 65, 16)
+        );
+    }
 
     #[test]
     fn tiles_cover_every_pixel_exactly_once() {

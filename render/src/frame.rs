@@ -8,7 +8,7 @@
 
 use spindle_common::image::{Image, ImageError};
 use spindle_common::stats::RenderStats;
-use spindle_common::tile::{TileRect, split_centre_first};
+use spindle_common::tile::{TileRect, split_window_centre_first};
 
 use rayon::prelude::*;
 use spindle_common::scene::ADAPTIVE_BATCH;
@@ -20,23 +20,20 @@ use crate::tile::{PixelProgress, pixels_to_tile, render_tile_with_progress};
 /// keep every core busy inside a tile.
 const TILE_SIZE: u32 = 32;
 
-/// Renders `region` of the scene's film into a full-frame image (pixels outside the region stay
-/// black), centre tiles first, calling `rows_done` with the number of rows of a tile as they
-/// finish. Rayon runs inside each tile, on the current pool.
+/// Renders `region` of the scene's film into an image of that window ([`Image::window`]: the
+/// whole frame when `region` is the film, else a crop placed in the film), centre tiles of the
+/// window first ([`split_window_centre_first`], the farm's tiling of a job's window), calling
+/// `rows_done` with the number of rows of a tile as they finish. Rayon runs inside each tile,
+/// on the current pool.
 pub fn render_frame(
     scene: &Scene,
     region: TileRect,
     rows_done: &(dyn Fn(u64) + Sync),
 ) -> Result<(Image, RenderStats), ImageError> {
     let film = scene.film();
-    let mut image = Image::new(film.width, film.height);
+    let mut image = Image::window(film.width, film.height, region)?;
     let mut stats = RenderStats::default();
-    for tile in split_centre_first(region.width, region.height, TILE_SIZE) {
-        let rect = TileRect {
-            x: region.x + tile.x,
-            y: region.y + tile.y,
-            ..tile
-        };
+    for rect in split_window_centre_first(region, TILE_SIZE) {
         let pixels = render_tile_with_progress(scene, rect, rows_done);
         stats.add(&pixels.stats);
         image.insert_tile(&pixels)?;

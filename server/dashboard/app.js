@@ -338,7 +338,7 @@ function renderJob(job) {
     ['State', el('span', { class: `state ${job.state}`, id: 'job-state' }, job.state)],
     ['Progress', el('span', {}, progress(job), ` ${job.tiles_done}/${job.tiles_total} tiles`)],
     ['Priority', String(job.priority)],
-    ['Size', `${job.width}×${job.height}, tiles of ${job.tile_size}`],
+    ['Size', `${job.width}×${job.height}${cropText(job.crop)}, tiles of ${job.tile_size}`],
     ['Submitted', `${when(job.submitted_at_ms)}${job.submitter ? ` by ${job.submitter}` : ''}`],
     ['Elapsed', duration(job.elapsed_s)],
     ['ETA', FINISHED.has(job.state) ? '–' : duration(job.eta_s)],
@@ -386,6 +386,11 @@ function renderProvenance(p) {
     ...p.warnings.map((line) => `warning: ${line}`),
   ];
   $('job-plan').replaceChildren(el('h3', {}, 'Plan'), el('pre', { id: 'job-plan-text' }, lines.join('\n')));
+}
+
+// A cropped job renders only a window of its film (its preview shows the window alone).
+function cropText(crop) {
+  return crop ? ` (crop ${crop.x},${crop.y} ${crop.width}×${crop.height})` : '';
 }
 
 async function loadPreview(id) {

@@ -1,5 +1,6 @@
-//! Whether a job submission is admitted: a valid scene within the [`Limits`], with every
-//! asset it names given by hash and every OBJ asset already uploaded.
+//! Whether a job submission is admitted: a valid scene within the [`Limits`], a crop window
+//! (if any) inside the film, with every asset it names given by hash and every OBJ asset
+//! already uploaded.
 //!
 //! Admission reads only the request and stored assets (never a client's file paths) and
 //! answers a refusal as a 400 naming the offending field. The limit on jobs queued or running
@@ -8,7 +9,7 @@
 
 use std::collections::HashMap;
 
-use spindle_common::protocol::{SubmitJob, is_hash};
+use spindle_common::protocol::{SubmitJob, check_crop, is_hash};
 use spindle_common::scene::Shape;
 
 use crate::assets::AssetStore;
@@ -33,8 +34,12 @@ pub async fn admit(submit: &SubmitJob, limits: &Limits, assets: &AssetStore) -> 
     if submit.scene.film.time_budget_s.is_some() {
         return Err(Error::BadRequest(FARM_TIME_BUDGET.into()));
     }
+    let film = &submit.scene.film;
+    if let Some(crop) = &submit.crop {
+        check_crop(crop, film.width, film.height).map_err(Error::BadRequest)?;
+    }
     limits
-        .check_film(&submit.scene, submit.tile_size)
+        .check_film(&submit.scene, submit.tile_size, submit.crop)
         .map_err(Error::BadRequest)?;
     for (path, hash) in &submit.assets {
         if !is_hash(hash) {

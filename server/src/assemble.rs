@@ -1,5 +1,6 @@
 //! The final image of a job, and its preview: finished tiles read back from disk and placed
-//! into one frame.
+//! into one image of the job's window (the film, or its crop: then the EXR's data window is
+//! the crop inside the film's display window, as `render --workers 0 --crop` writes it).
 //!
 //! Tiles are inserted in tile index order and the EXR writer's bytes depend only on the image,
 //! so the file does not depend on which worker rendered which tile or in what order tiles
@@ -39,8 +40,8 @@ pub enum AssembleError {
     Transient(#[from] anyhow::Error),
 }
 
-/// Reads the given finished tiles (`(index, hash)`, in index order) into a frame; tiles that
-/// cannot be read back intact are left black and returned with the reason.
+/// Reads the given finished tiles (`(index, hash)`, in index order) into an image of the job's
+/// window; tiles that cannot be read back intact are left black and returned with the reason.
 pub fn frame(
     store: &TileStore,
     job: u64,
@@ -48,7 +49,8 @@ pub fn frame(
     tiles: &[(u32, String)],
 ) -> anyhow::Result<(Image, Vec<(u32, String)>)> {
     let film = &spec.scene.film;
-    let mut image = Image::new(film.width, film.height);
+    // Admission checked the crop against the film; a spec stored otherwise is an error.
+    let mut image = Image::window(film.width, film.height, spec.window())?;
     let mut damaged = Vec::new();
     for (index, hash) in tiles {
         match store.read(job, *index, hash) {
@@ -71,12 +73,16 @@ pub fn attributes(
     provenance: Option<&Provenance>,
 ) -> anyhow::Result<Vec<(String, String)>> {
     let film = &spec.scene.film;
+    let window = spec.window();
     let mut attributes = vec![
         ("spindle.spp".to_string(), film.spp.to_string()),
         ("spindle.seed".to_string(), film.seed.to_string()),
         (
             "spindle.region".to_string(),
-            format!("0,0,{},{}", film.width, film.height),
+            format!(
+                "{},{},{},{}",
+                window.x, window.y, window.width, window.height
+            ),
         ),
         (
             "spindle.integrator".to_string(),
@@ -102,12 +108,7 @@ pub fn write_final(
     stats: &RenderStats,
     provenance: Option<&Provenance>,
 ) -> Result<String, AssembleError> {
-    let expected = spindle_common::tile::split_centre_first(
-        spec.scene.film.width,
-        spec.scene.film.height,
-        spec.tile_size,
-    )
-    .len();
+    let expected = spec.tiles().len();
     if tiles.len() != expected {
         let e = anyhow::anyhow!("{} of {expected} tiles are in", tiles.len());
         return Err(AssembleError::Transient(e));

@@ -23,7 +23,7 @@ use spindle_common::protocol::{
 };
 use spindle_common::provenance::Provenance;
 use spindle_common::stats::RenderStats;
-use spindle_common::tile::{TileRect, split_centre_first};
+use spindle_common::tile::TileRect;
 use tokio::time::Instant;
 
 use crate::db::{self, JobRow, TileRowState};
@@ -208,11 +208,7 @@ pub fn now_ms() -> i64 {
 
 impl Job {
     fn new(id: u64, spec: Arc<JobSpec>, priority: i32, created_ms: i64) -> Job {
-        let rects = split_centre_first(
-            spec.scene.film.width,
-            spec.scene.film.height,
-            spec.tile_size,
-        );
+        let rects = spec.tiles();
         let tiles = vec![Tile::PENDING; rects.len()];
         Job {
             tiles_total: rects.len() as u32,
@@ -301,6 +297,7 @@ impl Job {
             stats: self.stats,
             provenance: self.provenance.as_deref().cloned(),
             relative_error: self.noise.relative_error(),
+            crop: self.spec.crop,
         }
     }
 
@@ -329,8 +326,7 @@ impl Job {
         db: &Connection,
         lease_deadline: Option<Instant>,
     ) -> anyhow::Result<()> {
-        let film = &self.spec.scene.film;
-        self.rects = split_centre_first(film.width, film.height, self.spec.tile_size);
+        self.rects = self.spec.tiles();
         self.tiles = vec![Tile::PENDING; self.rects.len()];
         self.leased = BTreeSet::new();
         self.tiles_done = 0;
@@ -395,6 +391,7 @@ impl NewJob {
                 scene: submit.scene,
                 assets: submit.assets,
                 tile_size: submit.tile_size,
+                crop: submit.crop,
             },
             priority: submit.priority,
             requires: submit.requires,

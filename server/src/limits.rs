@@ -6,6 +6,7 @@
 //! subdivisions has 20·4^s triangles; an OBJ's are counted from its `f` lines.
 
 use spindle_common::scene::{SceneDescription, Shape};
+use spindle_common::tile::TileRect;
 
 /// The coordinator's limits.
 #[derive(Debug, Clone, PartialEq)]
@@ -56,8 +57,14 @@ impl Default for Limits {
 
 impl Limits {
     /// Checks the film and the tile size of a job (not its triangles, see
-    /// [`Limits::check_triangles`]).
-    pub fn check_film(&self, scene: &SceneDescription, tile_size: u32) -> Result<(), String> {
+    /// [`Limits::check_triangles`]); the tiles counted are those of the crop window when there
+    /// is one (checked against the film before, [`spindle_common::protocol::check_crop`]).
+    pub fn check_film(
+        &self,
+        scene: &SceneDescription,
+        tile_size: u32,
+        crop: Option<TileRect>,
+    ) -> Result<(), String> {
         let film = &scene.film;
         for (field, value, max) in [
             ("scene.film.width", film.width, self.max_width),
@@ -84,7 +91,8 @@ impl Limits {
                 self.min_tile_size, self.max_tile_size
             ));
         }
-        let tiles = film.width.div_ceil(tile_size) as u64 * film.height.div_ceil(tile_size) as u64;
+        let (width, height) = crop.map_or((film.width, film.height), |c| (c.width, c.height));
+        let tiles = width.div_ceil(tile_size) as u64 * height.div_ceil(tile_size) as u64;
         if tiles > self.max_tiles_per_job {
             return Err(format!(
                 "tile_size: {tile_size} px tiles cut the image into {tiles} tiles, more than the \

@@ -432,6 +432,7 @@ impl Farm {
             requires: BTreeMap::new(),
             name: None,
             submitter: None,
+            crop: None,
         };
         let resp = self
             .client(reqwest::Method::POST, "/v1/jobs")
@@ -595,9 +596,9 @@ pub fn reference_image(scene: &Value, assets: &Assets) -> Result<Image> {
 /// Panics unless every layer of `a` and `b` is the same bits, naming the first difference.
 pub fn assert_bit_identical(a: &Image, b: &Image) {
     assert_eq!(
-        (a.width, a.height),
-        (b.width, b.height),
-        "image sizes differ"
+        (a.width, a.height, a.placement),
+        (b.width, b.height, b.placement),
+        "image sizes or places in the film differ"
     );
     let names = ["total", "surface", "single_scatter"];
     for ((name, la), lb) in names.iter().zip(a.layers()).zip(b.layers()) {

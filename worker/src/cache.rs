@@ -242,6 +242,7 @@ mod tests {
             scene: serde_json::from_value(scene).unwrap(),
             assets: BTreeMap::from([("tri.obj".to_string(), hash.to_string())]),
             tile_size: 4,
+            crop: None,
         };
         serde_json::to_vec(&spec).unwrap()
     }

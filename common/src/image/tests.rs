@@ -455,3 +455,126 @@ fn the_relative_error_png_shows_stderr_over_total() {
         &[preview_pixel(0.5), 0, 255, 0, 255, preview_pixel(0.1)]
     );
 }
+
+fn rect(x: u32, y: u32, width: u32, height: u32) -> TileRect {
+    TileRect {
+        x,
+        y,
+        width,
+        height,
+    }
+}
+
+#[test]
+fn a_window_takes_tiles_in_film_coordinates_and_refuses_the_rest() {
+    let window = rect(5, 3, 8, 4);
+    let mut image = Image::window(20, 10, window).expect("inside the film");
+    assert_eq!((image.width, image.height), (8, 4));
+    assert_eq!(image.rect(), window);
+    // Two tiles that cover the window between them.
+    for r in [rect(5, 3, 8, 2), rect(5, 5, 8, 2)] {
+        image.insert_tile(&tile_of(r)).expect("tile fits");
+    }
+    for (l, layer) in image.layers().into_iter().enumerate() {
+        for row in 0..4 {
+            for col in 0..8 {
+                for c in 0..3 {
+                    assert_eq!(
+                        layer[((row * 8 + col) * 3) as usize + c],
+                        value(l, 5 + col, 3 + row, c),
+                        "layer {l} film pixel ({}, {}) c{c}",
+                        5 + col,
+                        3 + row
+                    );
+                }
+            }
+        }
+    }
+    let before = image.clone();
+    // Inside the film but not the window, on every side, and wrapping around.
+    for r in [
+        rect(4, 3, 2, 2),
+        rect(12, 3, 2, 1),
+        rect(5, 2, 1, 2),
+        rect(5, 7, 1, 1),
+        rect(0, 0, 20, 10),
+        rect(u32::MAX, 3, 2, 1),
+    ] {
+        let err = image.insert_tile(&TilePixels::black(r)).unwrap_err();
+        assert!(
+            matches!(err, ImageError::TileOutside { .. }),
+            "{r:?}: {err}"
+        );
+    }
+    assert_eq!(image, before);
+}
+
+#[test]
+fn a_window_must_lie_inside_its_film() {
+    for w in [rect(15, 0, 6, 1), rect(0, 8, 1, 3), rect(u32::MAX, 0, 2, 1)] {
+        let err = Image::window(20, 10, w).unwrap_err();
+        assert!(
+            matches!(err, ImageError::WindowOutside { .. }),
+            "{w:?}: {err}"
+        );
+    }
+    // The fields are public: a window moved out of its film afterwards is not written.
+    let mut image = Image::window(20, 10, rect(0, 0, 4, 4)).unwrap();
+    image.placement.x = 17;
+    assert!(matches!(
+        image.to_exr_bytes(),
+        Err(ImageError::WindowOutside { .. })
+    ));
+}
+
+/// A window's position and size.
+type Window = ((i32, i32), (usize, usize));
+
+/// The display window and data window of an EXR as the `exr` crate reads its header:
+/// `(display position, display size, data position, data size)`.
+fn exr_windows(bytes: &[u8]) -> (Window, Window) {
+    let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false).unwrap();
+    assert_eq!(meta.headers.len(), 1);
+    let header = &meta.headers[0];
+    let display = header.shared_attributes.display_window;
+    let data = header.data_window();
+    (
+        (
+            (display.position.x(), display.position.y()),
+            (display.size.width(), display.size.height()),
+        ),
+        (
+            (data.position.x(), data.position.y()),
+            (data.size.width(), data.size.height()),
+        ),
+    )
+}
+
+#[test]
+fn a_crop_is_the_data_window_inside_the_display_window_and_round_trips() {
+    let mut image = Image::window(20, 10, rect(5, 3, 8, 4)).unwrap();
+    for r in split_centre_first(8, 4, 3) {
+        image
+            .insert_tile(&tile_of(rect(5 + r.x, 3 + r.y, r.width, r.height)))
+            .unwrap();
+    }
+    image
+        .attributes
+        .insert("spindle.region".into(), "5,3,8,4".into());
+    let bytes = image.to_exr_bytes().unwrap();
+    assert_eq!(exr_windows(&bytes), (((0, 0), (20, 10)), ((5, 3), (8, 4))));
+    let back = Image::from_exr_bytes(&bytes).unwrap();
+    assert_eq!(back, image);
+    for (a, b) in back.layers().iter().zip(image.layers()) {
+        assert_eq!(bits(a), bits(b));
+    }
+
+    // A full frame: both windows are the frame, as before crops existed.
+    let full = patterned(6, 4);
+    let bytes = full.to_exr_bytes().unwrap();
+    assert_eq!(exr_windows(&bytes), (((0, 0), (6, 4)), ((0, 0), (6, 4))));
+    assert_eq!(
+        Image::from_exr_bytes(&bytes).unwrap().placement,
+        full.placement
+    );
+}

@@ -16,7 +16,6 @@ use utoipa_axum::routes;
 use std::collections::BTreeMap;
 
 use spindle_common::protocol::JobState;
-use spindle_common::tile::split_centre_first;
 
 use super::Declared;
 use crate::AppState;
@@ -42,8 +41,7 @@ async fn job_tiles(
     let ledger = state.ledger();
     let job = ledger.job(id)?;
     if job.tiles.is_empty() {
-        let film = &job.spec.scene.film;
-        let rects = split_centre_first(film.width, film.height, job.spec.tile_size);
+        let rects = job.spec.tiles();
         let stored = if job.state == JobState::Done {
             BTreeMap::new()
         } else {

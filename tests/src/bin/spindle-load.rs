@@ -132,6 +132,7 @@ fn workload(size: u32, tile: u32, scatter_spp: Option<u32>) -> Result<Workload> 
             requires: Default::default(),
             name: Some("load".into()),
             submitter: None,
+            crop: None,
         },
         assets: assets.into_iter().collect(),
         tiles,
