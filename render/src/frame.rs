@@ -96,7 +96,7 @@ pub fn render_frame_passes(
     }
     let values: Vec<_> = pixels.par_iter().map(PixelProgress::value).collect();
     let tile = pixels_to_tile(region, values.iter());
-    let mut image = Image::new(film.width, film.height);
+    let mut image = Image::window(film.width, film.height, region)?;
     image.insert_tile(&tile)?;
     Ok((image, tile.stats, report))
 }
