@@ -28,7 +28,7 @@ use axum::response::{IntoResponse, Response};
 use axum::{Extension, Json, Router};
 use spindle_common::protocol::ApiError;
 use utoipa::OpenApi;
-use utoipa::openapi::path::Paths;
+use utoipa::openapi::path::{Operation, Paths};
 use utoipa::openapi::security::SecurityRequirement;
 use utoipa_axum::router::{OpenApiRouter, UtoipaMethodRouter};
 
@@ -126,50 +126,46 @@ fn require_token(paths: &mut Paths, role: Role) {
     for scheme in rest {
         requirement = requirement.add(*scheme, Vec::<String>::new());
     }
-    for item in paths.paths.values_mut() {
-        let operations = [
+    for operation in operations_mut(paths) {
+        operation.security = Some(vec![requirement.clone()]);
+        let responses = &mut operation.responses.responses;
+        responses
+            .entry("401".into())
+            .or_insert_with(|| error_response("missing or wrong bearer token").into());
+        if role == Role::Worker {
+            responses.entry("403".into()).or_insert_with(|| {
+                error_response(
+                    "missing or wrong worker secret, or a worker id that is not the secret's \
+                     worker",
+                )
+                .into()
+            });
+        }
+    }
+}
+
+/// Every operation of `paths` (the methods the coordinator serves).
+fn operations_mut(paths: &mut Paths) -> impl Iterator<Item = &mut Operation> {
+    paths.paths.values_mut().flat_map(|item| {
+        [
             &mut item.get,
             &mut item.put,
             &mut item.post,
             &mut item.delete,
             &mut item.patch,
-        ];
-        for operation in operations.into_iter().flatten() {
-            operation.security = Some(vec![requirement.clone()]);
-            let responses = &mut operation.responses.responses;
-            responses
-                .entry("401".into())
-                .or_insert_with(|| error_response("missing or wrong bearer token").into());
-            if role == Role::Worker {
-                responses.entry("403".into()).or_insert_with(|| {
-                    error_response(
-                        "missing or wrong worker secret, or a worker id that is not the \
-                         secret's worker",
-                    )
-                    .into()
-                });
-            }
-        }
-    }
+        ]
+        .into_iter()
+        .flatten()
+    })
 }
 
 /// Documents the 400 every operation with input can answer: a path parameter, query, header or
 /// body that does not parse or is out of range (the extractors' errors, [`crate::extract`]).
 fn document_bad_request(paths: &mut Paths) {
-    for item in paths.paths.values_mut() {
-        let operations = [
-            &mut item.get,
-            &mut item.put,
-            &mut item.post,
-            &mut item.delete,
-            &mut item.patch,
-        ];
-        for operation in operations.into_iter().flatten() {
-            let has_input = operation.request_body.is_some()
-                || operation.parameters.as_ref().is_some_and(|p| !p.is_empty());
-            if !has_input {
-                continue;
-            }
+    for operation in operations_mut(paths) {
+        let has_input = operation.request_body.is_some()
+            || operation.parameters.as_ref().is_some_and(|p| !p.is_empty());
+        if has_input {
             operation
                 .responses
                 .responses
