@@ -615,3 +615,41 @@ pub fn assert_bit_identical(a: &Image, b: &Image) {
         }
     }
 }
+
+/// Runs the `spindle` command with `args` in `cwd` (or here), with the farm's address and client
+/// token in its environment when `farm` is given (and no other spindle settings inherited);
+/// killed if it outlives `timeout`.
+pub async fn run_spindle(
+    cwd: Option<&Path>,
+    args: &[&str],
+    farm: Option<&Farm>,
+    timeout: Duration,
+) -> std::process::Output {
+    let mut cmd = Command::new(binary("spindle"));
+    if let Some(cwd) = cwd {
+        cmd.current_dir(cwd);
+    }
+    cmd.args(args)
+        .env_remove("SPINDLE_SERVER")
+        .env_remove("SPINDLE_TOKEN");
+    if let Some(farm) = farm {
+        cmd.env("SPINDLE_SERVER", farm.base())
+            .env("SPINDLE_TOKEN", &farm.client_token);
+    }
+    let mut cmd = tokio::process::Command::from(cmd);
+    cmd.kill_on_drop(true);
+    tokio::time::timeout(timeout, cmd.output())
+        .await
+        .expect("spindle finished in time")
+        .expect("spindle ran")
+}
+
+/// A finished command's status, stdout and stderr, for assertion messages.
+pub fn output_text(out: &std::process::Output) -> String {
+    format!(
+        "status {}\nstdout:\n{}\nstderr:\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    )
+}

@@ -8,7 +8,8 @@ use std::time::Duration;
 use spindle_common::image::read_exr;
 use spindle_common::protocol::{JobInfo, JobState, WorkerList, WorkerState};
 use spindle_tests::{
-    Farm, accepted_tiles, assert_bit_identical, binary, reference_image, test_scene,
+    Farm, accepted_tiles, assert_bit_identical, binary, output_text, reference_image, run_spindle,
+    test_scene,
 };
 
 const TEST_TIMEOUT: Duration = Duration::from_secs(150);
@@ -34,32 +35,11 @@ async fn spindle(args: &[&str], farm: Option<&Farm>) -> Output {
 
 /// [`spindle`] run in the directory `cwd`.
 async fn spindle_in(cwd: Option<&Path>, args: &[&str], farm: Option<&Farm>) -> Output {
-    let mut cmd = Command::new(binary("spindle"));
-    if let Some(cwd) = cwd {
-        cmd.current_dir(cwd);
-    }
-    cmd.args(args)
-        .env_remove("SPINDLE_SERVER")
-        .env_remove("SPINDLE_TOKEN");
-    if let Some(farm) = farm {
-        cmd.env("SPINDLE_SERVER", farm.base())
-            .env("SPINDLE_TOKEN", &farm.client_token);
-    }
-    let mut cmd = tokio::process::Command::from(cmd);
-    cmd.kill_on_drop(true);
-    tokio::time::timeout(TEST_TIMEOUT, cmd.output())
-        .await
-        .expect("spindle finished in time")
-        .expect("spindle ran")
+    run_spindle(cwd, args, farm, TEST_TIMEOUT).await
 }
 
 fn text(out: &Output) -> String {
-    format!(
-        "status {}\nstdout:\n{}\nstderr:\n{}",
-        out.status,
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    )
+    output_text(out)
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

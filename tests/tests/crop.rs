@@ -4,7 +4,7 @@
 //! those of a full render; a crop outside the film or without pixels is refused naming `crop`.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 use std::time::Duration;
 
 use reqwest::{Method, StatusCode};
@@ -12,7 +12,9 @@ use serde_json::{Value, json};
 use spindle_common::image::{Image, Placement, read_exr};
 use spindle_common::protocol::{JobInfo, JobList, asset_hash};
 use spindle_common::tile::TileRect;
-use spindle_tests::{Farm, assert_bit_identical, binary, reference_image, scattering_test_scene};
+use spindle_tests::{
+    Farm, assert_bit_identical, output_text, reference_image, run_spindle, scattering_test_scene,
+};
 
 const TEST_TIMEOUT: Duration = Duration::from_secs(240);
 
@@ -43,29 +45,11 @@ fn write_scene(dir: &Path) -> std::path::PathBuf {
 
 /// Runs `spindle` with `args`, talking to `farm` if given.
 async fn spindle(args: &[&str], farm: Option<&Farm>) -> Output {
-    let mut cmd = Command::new(binary("spindle"));
-    cmd.args(args)
-        .env_remove("SPINDLE_SERVER")
-        .env_remove("SPINDLE_TOKEN");
-    if let Some(farm) = farm {
-        cmd.env("SPINDLE_SERVER", farm.base())
-            .env("SPINDLE_TOKEN", &farm.client_token);
-    }
-    let mut cmd = tokio::process::Command::from(cmd);
-    cmd.kill_on_drop(true);
-    tokio::time::timeout(TEST_TIMEOUT, cmd.output())
-        .await
-        .expect("spindle finished in time")
-        .expect("spindle ran")
+    run_spindle(None, args, farm, TEST_TIMEOUT).await
 }
 
 fn text(out: &Output) -> String {
-    format!(
-        "status {}\nstdout:\n{}\nstderr:\n{}",
-        out.status,
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    )
+    output_text(out)
 }
 
 /// A `box2i` attribute of an EXR header (`dataWindow`, `displayWindow`) as
