@@ -10,6 +10,7 @@ use std::time::Duration;
 use axum::http::{Method, StatusCode};
 use serde_json::json;
 use spindle_common::protocol::{JobState, TileUpload, pixel_hash};
+use spindle_common::tile_encoding;
 use support::*;
 
 /// A coordinator whose leases lapse after `ttl`.
@@ -509,4 +510,77 @@ async fn an_upload_beyond_f32_is_refused_naming_the_value() {
         )
         .await;
     assert_eq!(status, StatusCode::OK);
+}
+
+#[tokio::test]
+async fn compact_uploads_are_read_and_bad_ones_refused_with_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = Coordinator::open(config(dir.path())).await;
+    let job = c
+        .submit(json!({"scene": scene(16, 8), "tile_size": 8}))
+        .await;
+    let w = c.register("w").await;
+    let first = c.lease(w).await.unwrap();
+    let second = c.lease(w).await.unwrap();
+    let compact = tile_encoding::CONTENT_TYPE;
+
+    // Another media type: 415 naming the header; not zstd: 400 naming the body.
+    let body = serde_json::to_vec(&upload_for(&first, w)).unwrap();
+    let (status, err) = c
+        .upload_bytes(job.id, first.tile_index, "text/plain", body)
+        .await;
+    assert_eq!(status, StatusCode::UNSUPPORTED_MEDIA_TYPE, "{err}");
+    assert!(
+        err["error"].as_str().unwrap().starts_with("Content-Type:"),
+        "{err}"
+    );
+    let (status, err) = c
+        .upload_bytes(job.id, first.tile_index, compact, b"not zstd".to_vec())
+        .await;
+    assert_eq!(status, StatusCode::BAD_REQUEST, "{err}");
+    assert!(
+        err["error"]
+            .as_str()
+            .unwrap()
+            .starts_with("body: not a zstd frame"),
+        "{err}"
+    );
+
+    // A value beyond f32 in the compact form: 400 naming the layer and the value.
+    let mut wide = serde_json::to_value(upload_for(&first, w)).unwrap();
+    wide["pixels"]["total"][2] = json!(1e39);
+    let (status, err) = c
+        .upload_bytes(
+            job.id,
+            first.tile_index,
+            compact,
+            tile_encoding::encode(&wide).unwrap(),
+        )
+        .await;
+    assert_eq!(status, StatusCode::BAD_REQUEST, "{err}");
+    assert!(
+        err["error"]
+            .as_str()
+            .unwrap()
+            .starts_with("pixels.total: value 2 is 1e39"),
+        "{err}"
+    );
+
+    // Both forms complete their tiles, and the job finishes.
+    let encoded = tile_encoding::encode(&upload_for(&first, w)).unwrap();
+    let (status, ack) = c
+        .upload_bytes(job.id, first.tile_index, compact, encoded)
+        .await;
+    assert_eq!(
+        (status, ack["outcome"].as_str()),
+        (StatusCode::OK, Some("accepted"))
+    );
+    let (status, ack) = c
+        .upload(job.id, second.tile_index, &upload_for(&second, w))
+        .await;
+    assert_eq!(
+        (status, ack["outcome"].as_str()),
+        (StatusCode::OK, Some("accepted"))
+    );
+    assert_eq!(c.wait_finished(job.id).await.state, JobState::Done);
 }

@@ -254,6 +254,38 @@ impl Coordinator {
         .await
     }
 
+    /// `PUT` of a tile body as given, with `content_type`, by the worker registered last.
+    pub async fn upload_bytes(
+        &self,
+        job: u64,
+        tile: u32,
+        content_type: &str,
+        body: Vec<u8>,
+    ) -> (StatusCode, Value) {
+        let uri = format!("/v1/jobs/{job}/tiles/{tile}");
+        let secret = self.secret_for(&uri, b"");
+        let mut request = Request::builder()
+            .method(Method::PUT)
+            .uri(&uri)
+            .header("authorization", format!("Bearer {WORKER}"))
+            .header("content-type", content_type);
+        if let Some(secret) = secret {
+            request = request.header("spindle-worker-secret", secret);
+        }
+        let response = self
+            .app
+            .clone()
+            .oneshot(request.body(Body::from(body)).unwrap())
+            .await
+            .unwrap();
+        let status = response.status();
+        let bytes = response.into_body().collect().await.unwrap().to_bytes();
+        (
+            status,
+            serde_json::from_slice(&bytes).unwrap_or(Value::Null),
+        )
+    }
+
     /// Waits (up to 30 s) until the job is finished.
     pub async fn wait_finished(&self, id: u64) -> JobInfo {
         for _ in 0..3000 {
