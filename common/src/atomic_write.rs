@@ -1,6 +1,6 @@
 //! Writing a whole file so that no reader, and no process restarted after a crash, ever sees a
 //! part of it: the one way every spindle process puts a file on disk (output images, the
-//! coordinator's tile files, a fetched image).
+//! coordinator's job images and assets, a fetched image).
 //!
 //! [`write`] puts the bytes in a temporary file in the destination's own directory (a rename is
 //! atomic only within one file system), syncs it to disk, renames it over the destination, and

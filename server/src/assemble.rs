@@ -1,4 +1,4 @@
-//! The final image of a job, and its preview: finished tiles read back from disk and placed
+//! The final image of a job, and its preview: finished tiles read back from the store and placed
 //! into one image of the job's window (the film, or its crop: then the EXR's data window is
 //! the crop inside the film's display window, as `render --workers 0 --crop` writes it).
 //!
@@ -121,6 +121,7 @@ pub fn write_final(
         .attributes
         .extend(attributes(spec, stats, provenance)?);
     let bytes = image.to_exr_bytes().map_err(anyhow::Error::from)?;
+    std::fs::create_dir_all(store.job_dir(job)).map_err(anyhow::Error::from)?;
     spindle_common::atomic_write::write(store.image_path(job), &bytes)
         .map_err(anyhow::Error::from)?;
     Ok(sha256_hex(&bytes))
@@ -172,12 +173,6 @@ pub(crate) async fn finish(state: AppState, id: u64) {
                 if let Err(e) = recorded {
                     tracing::error!(job = id, error = %e, "recording the end of assembly failed");
                     break;
-                }
-                // The image holds every tile now; their files are not needed any more.
-                let store = state.tile_store().clone();
-                let removed = tokio::task::spawn_blocking(move || store.remove_tiles(id)).await;
-                if let Ok(Err(e)) = removed {
-                    tracing::warn!(job = id, error = %e, "removing the tiles of a done job failed");
                 }
                 break;
             }

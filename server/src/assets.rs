@@ -11,6 +11,7 @@
 //! that names it all renew the file's time ([`AssetStore::touch`]), so a client that uploads
 //! first and submits next never sees its asset vanish in between.
 
+use anyhow::Context;
 use std::collections::{HashMap, HashSet};
 use std::path::PathBuf;
 use std::sync::Mutex;
@@ -23,7 +24,6 @@ use tokio::io::AsyncWriteExt;
 
 use crate::error::Error;
 use crate::limits::count_obj_triangles;
-use crate::tile_store::sync_dir;
 
 /// The asset directory and a cache of triangle counts.
 #[derive(Debug)]
@@ -144,9 +144,12 @@ impl AssetStore {
         }
         tmp.persist(&path).map_err(|e| Error::from(e.error))?;
         let dir = self.dir.clone();
-        tokio::task::spawn_blocking(move || sync_dir(&dir))
-            .await
-            .map_err(anyhow::Error::from)??;
+        tokio::task::spawn_blocking(move || {
+            spindle_common::atomic_write::sync_dir(&dir)
+                .with_context(|| format!("syncing {}", dir.display()))
+        })
+        .await
+        .map_err(anyhow::Error::from)??;
         Ok(size)
     }
 

@@ -7,8 +7,10 @@
 //! the OS's page cache) without an fsync per tile. Schema changes are numbered migrations
 //! applied in order and tracked with `PRAGMA user_version`.
 //!
-//! Tile pixels are not stored here but in files (see [`crate::tile_store`]); a `done` row names
-//! the file by its content hash, and the file is synced before the row is committed.
+//! A `done` tile row holds the tile's pixels (common's compact tile form) beside their content
+//! hash, written in the same commit: a tile is recorded with its result or not at all, with no
+//! file to create, sync and rename per tile. [`crate::tile_store`] reads them back on its own
+//! connection, so assembling an image never holds the ledger.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -98,6 +100,10 @@ const MIGRATIONS: &[&str] = &[
     ALTER TABLE tiles ADD COLUMN noise TEXT;
     ALTER TABLE jobs ADD COLUMN noise TEXT;
 "#,
+    // Each done tile's pixels (common's `TilePixels` in the compact tile form); NULL for tiles
+    // done before this column (their results were files): such a tile reads as missing at
+    // assembly and is rendered again.
+    "ALTER TABLE tiles ADD COLUMN pixels BLOB;",
 ];
 
 /// Opens (creating if needed) the database at `path` and brings its schema up to date.
@@ -566,14 +572,15 @@ pub fn record_done(
     job: u64,
     index: u32,
     upload: &TileUpload,
+    pixels: &[u8],
 ) -> anyhow::Result<()> {
     tx.execute(
         "INSERT INTO tiles (job_id, tile_index, state, epoch, worker_id, hash, stats,
-                            render_seconds)
-         VALUES (?1, ?2, 'done', ?3, ?4, ?5, ?6, ?7)
+                            render_seconds, pixels)
+         VALUES (?1, ?2, 'done', ?3, ?4, ?5, ?6, ?7, ?8)
          ON CONFLICT (job_id, tile_index) DO UPDATE
            SET state = 'done', epoch = ?3, worker_id = ?4, hash = ?5, stats = ?6,
-               render_seconds = ?7",
+               render_seconds = ?7, pixels = ?8",
         params![
             job as i64,
             index,
@@ -581,10 +588,24 @@ pub fn record_done(
             upload.worker_id as i64,
             upload.hash,
             serde_json::to_string(&upload.pixels.stats)?,
-            upload.render_seconds
+            upload.render_seconds,
+            pixels
         ],
     )?;
     Ok(())
+}
+
+/// The stored pixels of tile `index` of `job` (compact form), if it has a row holding them.
+pub fn tile_pixels(conn: &Connection, job: u64, index: u32) -> rusqlite::Result<Option<Vec<u8>>> {
+    use rusqlite::OptionalExtension;
+    let pixels = conn
+        .query_row(
+            "SELECT pixels FROM tiles WHERE job_id = ?1 AND tile_index = ?2",
+            params![job as i64, index],
+            |r| r.get::<_, Option<Vec<u8>>>(0),
+        )
+        .optional()?;
+    Ok(pixels.flatten())
 }
 
 /// Records a done tile's noise sums (after [`record_done`], in the same transaction).
@@ -667,7 +688,8 @@ pub fn record_failure(
 /// its next lease has a higher one.
 pub fn requeue_tile(tx: &Transaction<'_>, job: u64, index: u32) -> rusqlite::Result<()> {
     tx.execute(
-        "UPDATE tiles SET state = 'pending', hash = NULL, stats = NULL, render_seconds = NULL
+        "UPDATE tiles SET state = 'pending', hash = NULL, stats = NULL, render_seconds = NULL,
+                         pixels = NULL
          WHERE job_id = ?1 AND tile_index = ?2",
         params![job as i64, index],
     )?;
@@ -739,8 +761,13 @@ mod tests {
             render_seconds: Some(0.25),
             provenance: None,
         };
-        record_done(&tx, id, 7, &upload).unwrap();
+        record_done(&tx, id, 7, &upload, b"stored pixels").unwrap();
         tx.commit().unwrap();
+        assert_eq!(
+            tile_pixels(&conn, id, 7).unwrap().as_deref(),
+            Some(&b"stored pixels"[..])
+        );
+        assert_eq!(tile_pixels(&conn, id, 8).unwrap(), None, "no row");
         let tiles = load_tiles(&conn, id).unwrap();
         assert_eq!(tiles[&7].epoch, 2);
         assert_eq!(tiles[&7].worker_id, Some(43));

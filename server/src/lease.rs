@@ -42,7 +42,7 @@ use spindle_common::protocol::TileError;
 pub enum UploadPlan {
     /// The tile is already done with this result: acknowledge, store nothing.
     Duplicate,
-    /// Write the tile's file, then [`Ledger::record_upload`].
+    /// A new result: [`Ledger::record_upload`] records it.
     Store,
 }
 
@@ -390,16 +390,16 @@ impl Ledger {
         Ok(UploadPlan::Store)
     }
 
-    /// Records a tile whose file has been written. Returns the outcome and whether the job now
-    /// has every tile.
+    /// Records a tile and its pixels (`stored`: `upload.pixels` in the compact tile form) in
+    /// one commit. Returns the outcome and whether the job now has every tile.
     pub fn record_upload(
         &mut self,
         id: u64,
         index: u32,
         upload: &TileUpload,
+        stored: &[u8],
     ) -> Result<(TileOutcome, bool), Error> {
         self.seen(upload.worker_id, Instant::now());
-        // The lease may have changed while the file was written.
         if self.check_upload(id, index, upload)? == UploadPlan::Duplicate {
             return Ok((TileOutcome::Duplicate, false));
         }
@@ -410,7 +410,7 @@ impl Ledger {
         };
         let noise = NoiseSums::of_tile(&upload.pixels);
         let tx = self.db.transaction()?;
-        db::record_done(&tx, id, index, upload)?;
+        db::record_done(&tx, id, index, upload, stored)?;
         db::set_tile_noise(&tx, id, index, &noise)?;
         if let Some(p) = &provenance {
             db::set_provenance(

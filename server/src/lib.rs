@@ -80,13 +80,7 @@ impl AppState {
                 .with_context(|| format!("opening {}", data.join("spindle.db").display()))?;
             let ledger = Ledger::load(db, lease_ttl, grace, tokio::time::Instant::now())?;
             let assets = AssetStore::open(data.join("assets"))?;
-            let tiles = TileStore::open(data.join("jobs"))?;
-            // A done job's tiles are in its image; a process stopped between the two left them.
-            for job in ledger.jobs.values() {
-                if job.state == spindle_common::protocol::JobState::Done {
-                    tiles.remove_tiles(job.id)?;
-                }
-            }
+            let tiles = TileStore::open(data.join("jobs"), &data.join("spindle.db"))?;
             anyhow::Ok((ledger, assets, tiles))
         })
         .await??;

@@ -2,7 +2,7 @@
 //!
 //! A client that connects and then sends nothing, or a byte at a time, must not be able to keep
 //! a connection (and its file descriptor) for long, nor to use up the descriptors that other
-//! requests, the database and the tile files need. So, per connection:
+//! requests, the database and the image files need. So, per connection:
 //! - with TLS ([`crate::tls`]), the handshake must finish within the header deadline too, so a
 //!   client that connects and stays silent holds its slot no longer than over plain HTTP;
 //! - hyper's HTTP/1 header-read deadline ([`crate::Timeouts::header`]) bounds the request line and
@@ -35,7 +35,7 @@ use crate::config::Config;
 use crate::tls;
 
 /// Descriptors kept for everything but client connections: the database and its journal, asset
-/// and tile files being written, the log, the listener.
+/// and image files being written, the log, the listener.
 pub const RESERVED_DESCRIPTORS: u64 = 64;
 
 /// How long shutdown waits for in-flight requests before closing their connections.

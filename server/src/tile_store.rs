@@ -1,20 +1,23 @@
-//! Finished tiles on disk, one file per tile result, named by the result's content hash.
+//! Finished tiles read back for assembly and previews, and the files of a job (its image).
 //!
-//! `DATA/jobs/<job>/tiles/<index>-<hash>.tile` holds the [`TilePixels`] in the compact form of
-//! [`tile_encoding`] (every f32 kept to the bit). Files are written to a temporary name,
-//! synced, then renamed, and only then is the tile recorded as done in the database, so a
-//! coordinator killed at any moment never records a tile it does not have. Naming by hash means
-//! a slow, stale upload can never overwrite the file a newer, recorded result lives in.
+//! A tile's pixels are stored in its `done` row of the database, in the compact form of
+//! [`tile_encoding`] (every f32 kept to the bit), by the same commit that records the tile (see
+//! [`crate::db`]); this store reads them on a connection of its own, so reading a whole job's
+//! tiles never holds the ledger, and checks each against the hash recorded with it. A job's
+//! directory, `DATA/jobs/<job>/`, holds only its final `image.exr`.
 //!
 //! All functions here block; call them from `spawn_blocking`.
 
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
 
 use anyhow::Context;
-use spindle_common::atomic_write;
+use rusqlite::Connection;
 use spindle_common::protocol::pixel_hash;
 use spindle_common::tile::TilePixels;
 use spindle_common::tile_encoding;
+
+use crate::db;
 
 /// The most bytes a stored tile may inflate to: a 256-pixel tile's four layers as MessagePack
 /// f32s (5 bytes each) are under 4 MB; its statistics add little.
@@ -23,25 +26,37 @@ const MAX_DECODED_TILE_BYTES: usize = 8 << 20;
 /// Why a recorded tile could not be read back.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum ReadError {
-    /// The file is missing, truncated or altered: the tile must be rendered again.
+    /// The result is missing, truncated or altered: the tile must be rendered again.
     #[error("{0}")]
     Damaged(String),
-    /// Reading failed otherwise (I/O): it may pass.
+    /// Reading failed otherwise (I/O, a busy database): it may pass.
     #[error("{0}")]
     Io(String),
 }
 
-/// Job directories under `DATA/jobs`.
+/// Stored tile results and job directories.
 #[derive(Debug, Clone)]
 pub struct TileStore {
+    /// `DATA/jobs`.
     root: PathBuf,
+    /// A read-only connection to the coordinator's database (WAL: reading never blocks the
+    /// ledger's commits, and sees every committed tile).
+    reader: Arc<Mutex<Connection>>,
 }
 
 impl TileStore {
-    /// A store rooted at `root` (created if missing).
-    pub fn open(root: PathBuf) -> std::io::Result<TileStore> {
-        std::fs::create_dir_all(&root)?;
-        Ok(TileStore { root })
+    /// A store of job directories under `root` (created if missing), reading tiles from the
+    /// database at `database`, which [`db::open`] has already brought up to date.
+    pub fn open(root: PathBuf, database: &Path) -> anyhow::Result<TileStore> {
+        std::fs::create_dir_all(&root).with_context(|| format!("creating {}", root.display()))?;
+        let reader = Connection::open(database)
+            .with_context(|| format!("opening {} for reading tiles", database.display()))?;
+        reader.pragma_update(None, "query_only", true)?;
+        reader.busy_timeout(std::time::Duration::from_secs(5))?;
+        Ok(TileStore {
+            root,
+            reader: Arc::new(Mutex::new(reader)),
+        })
     }
 
     /// The directory of one job.
@@ -54,42 +69,22 @@ impl TileStore {
         self.job_dir(job).join("image.exr")
     }
 
-    fn tile_path(&self, job: u64, index: u32, hash: &str) -> PathBuf {
-        self.job_dir(job)
-            .join("tiles")
-            .join(format!("{index}-{hash}.tile"))
-    }
-
-    /// Writes a tile result durably with [`atomic_write::write`].
-    pub fn write(
-        &self,
-        job: u64,
-        index: u32,
-        hash: &str,
-        pixels: &TilePixels,
-    ) -> anyhow::Result<()> {
-        let path = self.tile_path(job, index, hash);
-        let bytes = tile_encoding::encode(pixels)?;
-        let dir = path.parent().context("a tile path has a parent")?;
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        Ok(atomic_write::write(&path, &bytes)?)
-    }
-
-    /// Reads a recorded tile result back and checks it is the one recorded. Error messages
-    /// name the tile, never a path (they may reach clients); the path is logged.
+    /// Reads a recorded tile result back and checks it is the one recorded (`hash`). Error
+    /// messages name the tile, never the database (they may reach clients).
     pub fn read(&self, job: u64, index: u32, hash: &str) -> Result<TilePixels, ReadError> {
-        let path = self.tile_path(job, index, hash);
         let damaged = |problem: String| {
-            tracing::error!(job, tile = index, path = %path.display(), %problem, "stored tile damaged");
+            tracing::error!(job, tile = index, %problem, "stored tile damaged");
             ReadError::Damaged(format!("the stored result of tile {index} {problem}"))
         };
-        let bytes = match std::fs::read(&path) {
-            Ok(bytes) => bytes,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-                return Err(damaged("is missing".into()));
-            }
+        let stored = {
+            let reader = self.reader.lock().unwrap_or_else(|e| e.into_inner());
+            db::tile_pixels(&reader, job, index)
+        };
+        let bytes = match stored {
+            Ok(Some(bytes)) => bytes,
+            Ok(None) => return Err(damaged("is missing".into())),
             Err(e) => {
-                tracing::error!(job, tile = index, path = %path.display(), error = %e, "reading a stored tile failed");
+                tracing::error!(job, tile = index, error = %e, "reading a stored tile failed");
                 return Err(ReadError::Io(format!("reading tile {index}: {e}")));
             }
         };
@@ -101,14 +96,6 @@ impl TileStore {
         Ok(pixels)
     }
 
-    /// Removes a job's tile results (its image, if any, stays).
-    pub fn remove_tiles(&self, job: u64) -> std::io::Result<()> {
-        match std::fs::remove_dir_all(self.job_dir(job).join("tiles")) {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e),
-            _ => Ok(()),
-        }
-    }
-
     /// Removes a job's directory and everything in it.
     pub fn remove_job(&self, job: u64) -> std::io::Result<()> {
         match std::fs::remove_dir_all(self.job_dir(job)) {
@@ -118,20 +105,35 @@ impl TileStore {
     }
 }
 
-/// Makes a rename in `dir` durable.
-pub fn sync_dir(dir: &Path) -> anyhow::Result<()> {
-    atomic_write::sync_dir(dir).with_context(|| format!("syncing {}", dir.display()))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rusqlite::params;
     use spindle_common::tile::TileRect;
 
     #[test]
-    fn a_tile_round_trips_bit_for_bit_and_a_tampered_file_is_refused() {
+    fn a_tile_round_trips_bit_for_bit_and_a_damaged_row_is_refused() {
         let dir = tempfile::tempdir().unwrap();
-        let store = TileStore::open(dir.path().join("jobs")).unwrap();
+        let database = dir.path().join("spindle.db");
+        let writer = db::open(&database).unwrap();
+        let store = TileStore::open(dir.path().join("jobs"), &database).unwrap();
+        writer
+            .execute(
+                "INSERT INTO jobs (id, spec, priority, state, request_hash, created_ms)
+                 VALUES (1, '{}', 0, 'running', 'h', 0)",
+                [],
+            )
+            .unwrap();
+        let store_row = |bytes: Option<&[u8]>| {
+            writer
+                .execute(
+                    "INSERT INTO tiles (job_id, tile_index, state, epoch, pixels)
+                     VALUES (1, 4, 'done', 1, ?1)
+                     ON CONFLICT (job_id, tile_index) DO UPDATE SET pixels = ?1",
+                    params![bytes],
+                )
+                .unwrap();
+        };
         let rect = TileRect {
             x: 0,
             y: 0,
@@ -143,26 +145,36 @@ mod tests {
         pixels.surface[2] = f32::from_bits(0x0000_0001);
         pixels.single_scatter[17] = 1e30;
         let hash = pixel_hash(&pixels);
-        store.write(1, 4, &hash, &pixels).unwrap();
+        let encoded = tile_encoding::encode(&pixels).unwrap();
+        store_row(Some(&encoded));
         assert_eq!(store.read(1, 4, &hash).unwrap(), pixels);
 
-        let mut other = pixels.clone();
-        other.total[0] = 2.0;
-        let path = store.tile_path(1, 4, &hash);
-        std::fs::write(&path, serde_json::to_vec(&other).unwrap()).unwrap();
-        let damaged = |e: ReadError| match e {
+        let damaged = |e: ReadError, problem: &str| match e {
             ReadError::Damaged(m) => {
-                assert!(m.starts_with("the stored result of tile 4 "), "{m}");
-                assert!(!m.contains(&*dir.path().to_string_lossy()), "no path: {m}");
+                assert!(m.starts_with("the stored result of tile "), "{m}");
+                assert!(m.ends_with(problem), "{m}");
             }
             other => panic!("expected Damaged, got {other:?}"),
         };
-        damaged(store.read(1, 4, &hash).unwrap_err());
-        std::fs::write(&path, b"{\"rect\":").unwrap();
-        damaged(store.read(1, 4, &hash).unwrap_err());
-        std::fs::remove_file(&path).unwrap();
-        damaged(store.read(1, 4, &hash).unwrap_err());
+        let mut other = pixels.clone();
+        other.total[0] = f32::from_bits(other.total[0].to_bits() ^ 1);
+        store_row(Some(&tile_encoding::encode(&other).unwrap()));
+        damaged(
+            store.read(1, 4, &hash).unwrap_err(),
+            "does not hash to the recorded result",
+        );
+        store_row(Some(&encoded[..encoded.len() / 2]));
+        let e = store.read(1, 4, &hash).unwrap_err();
+        assert!(
+            matches!(&e, ReadError::Damaged(m) if m.contains("does not parse")),
+            "{e:?}"
+        );
+        store_row(None);
+        damaged(store.read(1, 4, &hash).unwrap_err(), "is missing");
+        damaged(store.read(1, 5, &hash).unwrap_err(), "is missing");
 
+        std::fs::create_dir_all(store.job_dir(1)).unwrap();
+        std::fs::write(store.image_path(1), b"exr").unwrap();
         store.remove_job(1).unwrap();
         assert!(!store.job_dir(1).exists());
         store.remove_job(1).unwrap();

@@ -1,9 +1,9 @@
-//! A stored tile found damaged at assembly goes back to the queue, an I/O error at assembly is
+//! A stored tile result found damaged at assembly goes back to the queue, an I/O error at assembly is
 //! retried, and a tile upload racing a delete or cancel is answered 404/409, never 500.
 
 mod support;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Duration;
 
 use axum::http::{Method, StatusCode};
@@ -13,17 +13,23 @@ use spindle_common::tile::TilePixels;
 use spindle_common::tile_encoding;
 use support::*;
 
-/// The stored file of tile `index` of `job` (its name ends with the result's hash).
-fn tile_file(data: &Path, job: u64, index: u32) -> PathBuf {
-    let dir = data.join("jobs").join(job.to_string()).join("tiles");
-    std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .find(|p| {
-            let name = p.file_name().unwrap().to_string_lossy().to_string();
-            name.starts_with(&format!("{index}-")) && name.ends_with(".tile")
-        })
-        .unwrap_or_else(|| panic!("no file for tile {index} in {}", dir.display()))
+/// Replaces the stored pixels of tile `index` of `job` in the coordinator's database, as a
+/// damaged disk would, beside the running coordinator.
+fn damage_tile(data: &Path, job: u64, index: u32, damage: impl FnOnce(Vec<u8>) -> Vec<u8>) {
+    let db = rusqlite::Connection::open(data.join("spindle.db")).unwrap();
+    db.busy_timeout(Duration::from_secs(5)).unwrap();
+    let stored: Vec<u8> = db
+        .query_row(
+            "SELECT pixels FROM tiles WHERE job_id = ?1 AND tile_index = ?2",
+            rusqlite::params![job as i64, index],
+            |r| r.get(0),
+        )
+        .unwrap();
+    db.execute(
+        "UPDATE tiles SET pixels = ?3 WHERE job_id = ?1 AND tile_index = ?2",
+        rusqlite::params![job as i64, index, damage(stored)],
+    )
+    .unwrap();
 }
 
 #[tokio::test]
@@ -47,16 +53,16 @@ async fn damaged_tiles_are_rendered_again_instead_of_failing_the_job() {
             .await;
         assert_eq!(status, StatusCode::OK, "{v}");
     }
-    // One file loses its end, the other has one bit of one value changed (only the hash can
-    // tell).
-    let truncated = tile_file(dir.path(), job.id, leases[0].tile_index);
-    let bytes = std::fs::read(&truncated).unwrap();
-    std::fs::write(&truncated, &bytes[..bytes.len() / 2]).unwrap();
-    let flipped = tile_file(dir.path(), job.id, leases[1].tile_index);
-    let mut pixels: TilePixels =
-        tile_encoding::decode(&std::fs::read(&flipped).unwrap(), 1 << 24).unwrap();
-    pixels.total[0] = f32::from_bits(pixels.total[0].to_bits() ^ 1);
-    std::fs::write(&flipped, tile_encoding::encode(&pixels).unwrap()).unwrap();
+    // One result loses its end, the other has one bit of one value changed (only the hash
+    // can tell).
+    damage_tile(dir.path(), job.id, leases[0].tile_index, |bytes| {
+        bytes[..bytes.len() / 2].to_vec()
+    });
+    damage_tile(dir.path(), job.id, leases[1].tile_index, |bytes| {
+        let mut pixels: TilePixels = tile_encoding::decode(&bytes, 1 << 24).unwrap();
+        pixels.total[0] = f32::from_bits(pixels.total[0].to_bits() ^ 1);
+        tile_encoding::encode(&pixels).unwrap()
+    });
 
     let last = &leases[2];
     let (status, v) = c

@@ -176,26 +176,17 @@ async fn an_interrupted_assembly_is_finished_after_a_restart() {
         assert_eq!(status, StatusCode::OK);
         (job, c.lease(w).await.unwrap(), w)
     };
-    // A kill after the last tile was stored and recorded, before the image was written: its
-    // file and its row, as the upload route leaves them (a done job's tiles go once its image
-    // is written, so they are put back by hand).
+    // A kill after the last tile was recorded, before the image was written: its row as the
+    // upload route leaves it (a done job's tile rows go with the commit that records it done,
+    // so the row is put back by hand).
     let upload = upload_for(&last, worker);
-    let tiles = dir
-        .path()
-        .join("jobs")
-        .join(job.id.to_string())
-        .join("tiles");
-    std::fs::write(
-        tiles.join(format!("{}-{}.tile", last.tile_index, upload.hash)),
-        spindle_common::tile_encoding::encode(&upload.pixels).unwrap(),
-    )
-    .unwrap();
     let db = rusqlite::Connection::open(dir.path().join("spindle.db")).unwrap();
     db.execute(
-        "UPDATE tiles SET state = 'done', hash = ?1, stats = ?2 WHERE tile_index = ?3",
+        "UPDATE tiles SET state = 'done', hash = ?1, stats = ?2, pixels = ?3 WHERE tile_index = ?4",
         rusqlite::params![
             upload.hash,
             serde_json::to_string(&upload.pixels.stats).unwrap(),
+            spindle_common::tile_encoding::encode(&upload.pixels).unwrap(),
             last.tile_index
         ],
     )
@@ -212,12 +203,10 @@ async fn an_interrupted_assembly_is_finished_after_a_restart() {
         .join(job.id.to_string())
         .join("image.exr");
     assert!(image.is_file());
-    // The tiles go once the image is written (just after the job is recorded done).
-    for _ in 0..150 {
-        if !tiles.exists() {
-            return;
-        }
-        tokio::time::sleep(Duration::from_millis(20)).await;
-    }
-    panic!("the tiles of a done job are still there");
+    // The tile rows went with the commit that recorded the job done.
+    assert_eq!(
+        tile_rows(dir.path(), job.id),
+        0,
+        "the tiles of a done job are still there"
+    );
 }

@@ -11,7 +11,7 @@ use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use spindle_common::protocol::{
     ApiError, Heartbeat, HeartbeatAck, JobSpec, Lease, LeaseRequest, MAX_LEASE_WAIT_MS,
-    RegisterWorker, TileAck, TileFailure, TileOutcome, TileUpload, WorkerRegistered, pixel_hash,
+    RegisterWorker, TileAck, TileFailure, TileUpload, WorkerRegistered, pixel_hash,
 };
 use spindle_common::tile_encoding;
 use tokio::time::Instant;
@@ -23,7 +23,6 @@ use crate::AppState;
 use crate::auth::Role;
 use crate::error::Error;
 use crate::extract::{ApiPath, JsonBody, RawBody, parse_json};
-use crate::lease::UploadPlan;
 use crate::limits::Limits;
 use crate::throttle;
 use crate::worker_secret::WorkerIdentity;
@@ -207,7 +206,7 @@ async fn upload_tile(
     let encoding = UploadEncoding::of(&headers)?;
     let limit = state.config().limits.max_tile_upload_bytes;
     // Decoding and hashing up to megabytes of floats is CPU work: off the runtime.
-    let upload = tokio::task::spawn_blocking(move || {
+    let (upload, stored) = tokio::task::spawn_blocking(move || {
         let upload: TileUpload = match encoding {
             UploadEncoding::Json => parse_json(&body)?,
             UploadEncoding::Compact => {
@@ -222,56 +221,18 @@ async fn upload_tile(
                 upload.hash
             )));
         }
-        Ok(upload)
+        // The form the pixels rest in, recorded by the same commit as the tile.
+        let stored = tile_encoding::encode(&upload.pixels).map_err(anyhow::Error::from)?;
+        Ok((upload, stored))
     })
     .await
     .map_err(anyhow::Error::from)??;
     identity.check("worker_id", upload.worker_id)?;
-
-    let (plan, upload) = state
-        .with_ledger(move |ledger| Ok((ledger.check_upload(job, tile, &upload)?, upload)))
+    let epoch = upload.epoch;
+    let (outcome, complete) = state
+        .with_ledger(move |ledger| ledger.record_upload(job, tile, &upload, &stored))
         .await?;
-    if plan == UploadPlan::Duplicate {
-        return Ok(Json(TileAck {
-            outcome: TileOutcome::Duplicate,
-        }));
-    }
-    let store = state.tile_store().clone();
-    let written = tokio::task::spawn_blocking(move || {
-        let written = store.write(job, tile, &upload.hash, &upload.pixels);
-        (written, upload)
-    })
-    .await
-    .map_err(anyhow::Error::from)?;
-    let upload = match written {
-        (Ok(()), upload) => upload,
-        (Err(e), upload) => {
-            // The job deleted or cancelled meanwhile takes its directory away: say that, not 500.
-            let now = state.ledger().check_upload(job, tile, &upload);
-            if let Err(refused) = now {
-                if matches!(refused, Error::NotFound(_)) {
-                    discard_files(&state, job).await;
-                }
-                return Err(refused);
-            }
-            return Err(Error::Internal(
-                e.context(format!("storing tile {tile} of job {job}")),
-            ));
-        }
-    };
-    let (recorded, upload) = state
-        .with_ledger(move |ledger| Ok((ledger.record_upload(job, tile, &upload), upload)))
-        .await?;
-    let (outcome, complete) = match recorded {
-        Ok(r) => r,
-        Err(Error::NotFound(m)) => {
-            // Deleted while the file was written: do not leave the file behind.
-            discard_files(&state, job).await;
-            return Err(Error::NotFound(m));
-        }
-        Err(e) => return Err(e),
-    };
-    crate::metrics::tile_stored(job, tile, upload.epoch, outcome);
+    crate::metrics::tile_stored(job, tile, epoch, outcome);
     if complete {
         state.assemble_complete_jobs();
     }
@@ -305,14 +266,6 @@ impl UploadEncoding {
                 tile_encoding::CONTENT_TYPE
             ))),
         }
-    }
-}
-
-/// Removes the files of a job deleted while one of its tiles was being stored; a failure is
-/// logged (the job is gone either way).
-async fn discard_files(state: &AppState, job: u64) {
-    if let Err(e) = state.remove_job_files(job).await {
-        tracing::warn!(job, error = %e, "removing the files of a deleted job failed");
     }
 }
 

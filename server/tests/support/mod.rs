@@ -299,6 +299,19 @@ impl Coordinator {
     }
 }
 
+/// How many tile rows (leased or done, with their pixels) the database under `data` holds
+/// for `job`, read beside the running coordinator.
+pub fn tile_rows(data: &std::path::Path, job: u64) -> i64 {
+    let db = rusqlite::Connection::open(data.join("spindle.db")).unwrap();
+    db.busy_timeout(std::time::Duration::from_secs(5)).unwrap();
+    db.query_row(
+        "SELECT COUNT(*) FROM tiles WHERE job_id = ?1",
+        [job as i64],
+        |r| r.get(0),
+    )
+    .unwrap()
+}
+
 /// The colour fake tile `index` is painted: distinct per tile and per layer.
 pub fn tile_colour(index: u32, layer: usize, channel: usize) -> f32 {
     0.25 + index as f32 + 0.125 * layer as f32 + 0.03125 * channel as f32
