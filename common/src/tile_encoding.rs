@@ -7,7 +7,11 @@
 //! itself, so optional fields, unknown-field refusal and the finite-f32 check of `TilePixels`
 //! behave as they do for JSON, and an f32 is its 4 bytes: every value reads back to the same
 //! bits (the upload's hash, which the coordinator checks, covers them). Decoding is bounded: a
-//! body that would inflate past the caller's limit is refused before it is parsed.
+//! body that would inflate past the caller's limit is refused before it is parsed. Each thread
+//! keeps one zstd context of each kind (a context is tens of kilobytes to set up; a tile is
+//! often less); a context carries no data from one call to the next.
+
+use std::cell::RefCell;
 
 use serde::Serialize;
 use serde::de::DeserializeOwned;
@@ -27,17 +31,47 @@ pub struct EncodingError(String);
 pub fn encode<T: Serialize>(value: &T) -> Result<Vec<u8>, EncodingError> {
     let packed = rmp_serde::to_vec_named(value)
         .map_err(|e| EncodingError(format!("encoding as MessagePack: {e}")))?;
-    zstd::bulk::compress(&packed, LEVEL).map_err(|e| EncodingError(format!("compressing: {e}")))
+    thread_local! {
+        static COMPRESSOR: RefCell<Option<zstd::bulk::Compressor<'static>>> = const { RefCell::new(None) };
+    }
+    COMPRESSOR
+        .with_borrow_mut(|compressor| {
+            let context = match compressor {
+                Some(context) => context,
+                None => compressor.insert(zstd::bulk::Compressor::new(LEVEL)?),
+            };
+            let compressed = context.compress(&packed);
+            if compressed.is_err() {
+                *compressor = None; // Never reuse a context an error left behind.
+            }
+            compressed
+        })
+        .map_err(|e| EncodingError(format!("compressing: {e}")))
 }
 
 /// Reads a value written by [`encode`], refusing a body that inflates past `limit` bytes, and
 /// naming the path of a bad field (`pixels.total: value 4 is 1e39, beyond the range …`).
 pub fn decode<T: DeserializeOwned>(bytes: &[u8], limit: usize) -> Result<T, EncodingError> {
-    let packed = zstd::bulk::decompress(bytes, limit).map_err(|e| {
-        EncodingError(format!(
-            "body: not a zstd frame of at most {limit} bytes when decompressed ({e})"
-        ))
-    })?;
+    thread_local! {
+        static DECOMPRESSOR: RefCell<Option<zstd::bulk::Decompressor<'static>>> = const { RefCell::new(None) };
+    }
+    let packed = DECOMPRESSOR
+        .with_borrow_mut(|decompressor| {
+            let context = match decompressor {
+                Some(context) => context,
+                None => decompressor.insert(zstd::bulk::Decompressor::new()?),
+            };
+            let packed = context.decompress(bytes, limit);
+            if packed.is_err() {
+                *decompressor = None; // Never reuse a context an error left behind.
+            }
+            packed
+        })
+        .map_err(|e| {
+            EncodingError(format!(
+                "body: not a zstd frame of at most {limit} bytes when decompressed ({e})"
+            ))
+        })?;
     let mut rest = packed.as_slice();
     let mut de = rmp_serde::Deserializer::new(&mut rest);
     let value = serde_path_to_error::deserialize(&mut de).map_err(|e| {
@@ -159,5 +193,29 @@ mod tests {
         let e =
             decode::<TilePixels>(&zstd::bulk::compress(&packed, 3).unwrap(), 1 << 20).unwrap_err();
         assert_eq!(e.0, "body: trailing data after the value");
+    }
+
+    /// The thread's contexts are reused: after refusals, other values, on another thread too,
+    /// every encoding is what a fresh context makes (zstd's one-shot function) and decodes back.
+    #[test]
+    fn a_reused_context_encodes_and_decodes_as_a_fresh_one() {
+        let pixels = tile();
+        let mut other = tile();
+        other.total[0] = 42.0;
+        let fresh =
+            |value: &TilePixels| zstd::bulk::compress(&rmp_serde::to_vec_named(value).unwrap(), 3);
+        let check = || {
+            for value in [&pixels, &other, &pixels] {
+                let encoded = encode(value).unwrap();
+                assert_eq!(encoded, fresh(value).unwrap());
+                assert!(decode::<TilePixels>(&encoded, 100).is_err(), "past the limit");
+                assert!(decode::<TilePixels>(b"not zstd", 1 << 20).is_err());
+                assert_eq!(&decode::<TilePixels>(&encoded, 1 << 20).unwrap(), value);
+            }
+        };
+        check();
+        std::thread::scope(|s| {
+            s.spawn(check);
+        });
     }
 }

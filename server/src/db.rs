@@ -558,40 +558,43 @@ pub fn record_lease(
     epoch: u64,
     worker: u64,
 ) -> rusqlite::Result<()> {
-    conn.execute(
+    conn.prepare_cached(
         "INSERT INTO tiles (job_id, tile_index, state, epoch, worker_id) VALUES (?1, ?2, 'leased', ?3, ?4)
          ON CONFLICT (job_id, tile_index) DO UPDATE SET state = 'leased', epoch = ?3, worker_id = ?4",
-        params![job as i64, index, epoch as i64, worker as i64],
-    )?;
+    )?
+    .execute(params![job as i64, index, epoch as i64, worker as i64])?;
     Ok(())
 }
 
-/// Records a finished tile (its file is already on disk).
+/// Records a finished tile: its result (`pixels`: `upload.pixels` in the compact tile form),
+/// statistics and noise sums.
 pub fn record_done(
     tx: &Transaction<'_>,
     job: u64,
     index: u32,
     upload: &TileUpload,
+    noise: &NoiseSums,
     pixels: &[u8],
 ) -> anyhow::Result<()> {
-    tx.execute(
+    tx.prepare_cached(
         "INSERT INTO tiles (job_id, tile_index, state, epoch, worker_id, hash, stats,
-                            render_seconds, pixels)
-         VALUES (?1, ?2, 'done', ?3, ?4, ?5, ?6, ?7, ?8)
+                            render_seconds, noise, pixels)
+         VALUES (?1, ?2, 'done', ?3, ?4, ?5, ?6, ?7, ?8, ?9)
          ON CONFLICT (job_id, tile_index) DO UPDATE
            SET state = 'done', epoch = ?3, worker_id = ?4, hash = ?5, stats = ?6,
-               render_seconds = ?7, pixels = ?8",
-        params![
-            job as i64,
-            index,
-            upload.epoch as i64,
-            upload.worker_id as i64,
-            upload.hash,
-            serde_json::to_string(&upload.pixels.stats)?,
-            upload.render_seconds,
-            pixels
-        ],
-    )?;
+               render_seconds = ?7, noise = ?8, pixels = ?9",
+    )?
+    .execute(params![
+        job as i64,
+        index,
+        upload.epoch as i64,
+        upload.worker_id as i64,
+        upload.hash,
+        serde_json::to_string(&upload.pixels.stats)?,
+        upload.render_seconds,
+        serde_json::to_string(noise)?,
+        pixels
+    ])?;
     Ok(())
 }
 
@@ -599,27 +602,12 @@ pub fn record_done(
 pub fn tile_pixels(conn: &Connection, job: u64, index: u32) -> rusqlite::Result<Option<Vec<u8>>> {
     use rusqlite::OptionalExtension;
     let pixels = conn
-        .query_row(
-            "SELECT pixels FROM tiles WHERE job_id = ?1 AND tile_index = ?2",
-            params![job as i64, index],
-            |r| r.get::<_, Option<Vec<u8>>>(0),
-        )
+        .prepare_cached("SELECT pixels FROM tiles WHERE job_id = ?1 AND tile_index = ?2")?
+        .query_row(params![job as i64, index], |r| {
+            r.get::<_, Option<Vec<u8>>>(0)
+        })
         .optional()?;
     Ok(pixels.flatten())
-}
-
-/// Records a done tile's noise sums (after [`record_done`], in the same transaction).
-pub fn set_tile_noise(
-    tx: &Transaction<'_>,
-    job: u64,
-    index: u32,
-    noise: &NoiseSums,
-) -> anyhow::Result<()> {
-    tx.execute(
-        "UPDATE tiles SET noise = ?3 WHERE job_id = ?1 AND tile_index = ?2",
-        params![job as i64, index, serde_json::to_string(noise)?],
-    )?;
-    Ok(())
 }
 
 /// The noise sums of a job's done tiles added up (tiles done before they were recorded count
@@ -761,7 +749,7 @@ mod tests {
             render_seconds: Some(0.25),
             provenance: None,
         };
-        record_done(&tx, id, 7, &upload, b"stored pixels").unwrap();
+        record_done(&tx, id, 7, &upload, &NoiseSums::default(), b"stored pixels").unwrap();
         tx.commit().unwrap();
         assert_eq!(
             tile_pixels(&conn, id, 7).unwrap().as_deref(),

@@ -410,8 +410,7 @@ impl Ledger {
         };
         let noise = NoiseSums::of_tile(&upload.pixels);
         let tx = self.db.transaction()?;
-        db::record_done(&tx, id, index, upload, stored)?;
-        db::set_tile_noise(&tx, id, index, &noise)?;
+        db::record_done(&tx, id, index, upload, &noise, stored)?;
         if let Some(p) = &provenance {
             db::set_provenance(
                 &tx,
