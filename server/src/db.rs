@@ -7,10 +7,10 @@
 //! the OS's page cache) without an fsync per tile. Schema changes are numbered migrations
 //! applied in order and tracked with `PRAGMA user_version`.
 //!
-//! A `done` tile row holds the tile's pixels (common's compact tile form) beside their content
-//! hash, written in the same commit: a tile is recorded with its result or not at all, with no
-//! file to create, sync and rename per tile. [`crate::tile_store`] reads them back on its own
-//! connection, so assembling an image never holds the ledger.
+//! A `done` tile row holds the tile's accepted upload (common's compact tile form) beside the
+//! content hash of its pixels, written in the same commit: a tile is recorded with its result
+//! or not at all, with no file to create, sync and rename per tile. [`crate::tile_store`] reads
+//! them back on its own connection, so assembling an image never holds the ledger.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -100,10 +100,10 @@ const MIGRATIONS: &[&str] = &[
     ALTER TABLE tiles ADD COLUMN noise TEXT;
     ALTER TABLE jobs ADD COLUMN noise TEXT;
 "#,
-    // Each done tile's pixels (common's `TilePixels` in the compact tile form); NULL for tiles
-    // done before this column (their results were files): such a tile reads as missing at
-    // assembly and is rendered again.
-    "ALTER TABLE tiles ADD COLUMN pixels BLOB;",
+    // Each done tile's accepted upload (common's `TileUpload` in the compact tile form: the
+    // pixels and the worker's report); NULL for tiles done before this column (their results
+    // were files): such a tile reads as missing at assembly and is rendered again.
+    "ALTER TABLE tiles ADD COLUMN upload BLOB;",
 ];
 
 /// Opens (creating if needed) the database at `path` and brings its schema up to date.
@@ -566,7 +566,7 @@ pub fn record_lease(
     Ok(())
 }
 
-/// Records a finished tile: its result (`pixels`: `upload.pixels` in the compact tile form),
+/// Records a finished tile: its upload (`stored`: `upload` in the compact tile form),
 /// statistics and noise sums.
 pub fn record_done(
     tx: &Transaction<'_>,
@@ -574,15 +574,15 @@ pub fn record_done(
     index: u32,
     upload: &TileUpload,
     noise: &NoiseSums,
-    pixels: &[u8],
+    stored: &[u8],
 ) -> anyhow::Result<()> {
     tx.prepare_cached(
         "INSERT INTO tiles (job_id, tile_index, state, epoch, worker_id, hash, stats,
-                            render_seconds, noise, pixels)
+                            render_seconds, noise, upload)
          VALUES (?1, ?2, 'done', ?3, ?4, ?5, ?6, ?7, ?8, ?9)
          ON CONFLICT (job_id, tile_index) DO UPDATE
            SET state = 'done', epoch = ?3, worker_id = ?4, hash = ?5, stats = ?6,
-               render_seconds = ?7, noise = ?8, pixels = ?9",
+               render_seconds = ?7, noise = ?8, upload = ?9",
     )?
     .execute(params![
         job as i64,
@@ -593,21 +593,21 @@ pub fn record_done(
         serde_json::to_string(&upload.pixels.stats)?,
         upload.render_seconds,
         serde_json::to_string(noise)?,
-        pixels
+        stored
     ])?;
     Ok(())
 }
 
-/// The stored pixels of tile `index` of `job` (compact form), if it has a row holding them.
-pub fn tile_pixels(conn: &Connection, job: u64, index: u32) -> rusqlite::Result<Option<Vec<u8>>> {
+/// The stored upload of tile `index` of `job` (compact form), if it has a row holding one.
+pub fn tile_upload(conn: &Connection, job: u64, index: u32) -> rusqlite::Result<Option<Vec<u8>>> {
     use rusqlite::OptionalExtension;
-    let pixels = conn
-        .prepare_cached("SELECT pixels FROM tiles WHERE job_id = ?1 AND tile_index = ?2")?
+    let upload = conn
+        .prepare_cached("SELECT upload FROM tiles WHERE job_id = ?1 AND tile_index = ?2")?
         .query_row(params![job as i64, index], |r| {
             r.get::<_, Option<Vec<u8>>>(0)
         })
         .optional()?;
-    Ok(pixels.flatten())
+    Ok(upload.flatten())
 }
 
 /// The noise sums of a job's done tiles added up (tiles done before they were recorded count
@@ -677,7 +677,7 @@ pub fn record_failure(
 pub fn requeue_tile(tx: &Transaction<'_>, job: u64, index: u32) -> rusqlite::Result<()> {
     tx.execute(
         "UPDATE tiles SET state = 'pending', hash = NULL, stats = NULL, render_seconds = NULL,
-                         pixels = NULL
+                         upload = NULL
          WHERE job_id = ?1 AND tile_index = ?2",
         params![job as i64, index],
     )?;
@@ -749,13 +749,13 @@ mod tests {
             render_seconds: Some(0.25),
             provenance: None,
         };
-        record_done(&tx, id, 7, &upload, &NoiseSums::default(), b"stored pixels").unwrap();
+        record_done(&tx, id, 7, &upload, &NoiseSums::default(), b"stored upload").unwrap();
         tx.commit().unwrap();
         assert_eq!(
-            tile_pixels(&conn, id, 7).unwrap().as_deref(),
-            Some(&b"stored pixels"[..])
+            tile_upload(&conn, id, 7).unwrap().as_deref(),
+            Some(&b"stored upload"[..])
         );
-        assert_eq!(tile_pixels(&conn, id, 8).unwrap(), None, "no row");
+        assert_eq!(tile_upload(&conn, id, 8).unwrap(), None, "no row");
         let tiles = load_tiles(&conn, id).unwrap();
         assert_eq!(tiles[&7].epoch, 2);
         assert_eq!(tiles[&7].worker_id, Some(43));

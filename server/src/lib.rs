@@ -71,6 +71,7 @@ impl AppState {
         // Counters count from the start, not from the first scrape.
         metrics::handle();
         let data = config.data_dir.clone();
+        let max_upload = config.limits.max_tile_upload_bytes;
         let lease_ttl = config.lease_ttl;
         let grace = config.restart_grace;
         let (ledger, assets, tiles) = tokio::task::spawn_blocking(move || {
@@ -80,7 +81,7 @@ impl AppState {
                 .with_context(|| format!("opening {}", data.join("spindle.db").display()))?;
             let ledger = Ledger::load(db, lease_ttl, grace, tokio::time::Instant::now())?;
             let assets = AssetStore::open(data.join("assets"))?;
-            let tiles = TileStore::open(data.join("jobs"), &data.join("spindle.db"))?;
+            let tiles = TileStore::open(data.join("jobs"), &data.join("spindle.db"), max_upload)?;
             anyhow::Ok((ledger, assets, tiles))
         })
         .await??;
@@ -158,14 +159,22 @@ impl AppState {
         T: Send + 'static,
         F: FnOnce(&mut Ledger) -> Result<T, error::Error> + Send + 'static,
     {
+        self.off_runtime(move |state| f(&mut state.ledger())).await
+    }
+
+    /// Runs `f` on a blocking thread (CPU work, or taking the ledger and committing), in the
+    /// caller's tracing span.
+    pub(crate) async fn off_runtime<T, F>(&self, f: F) -> Result<T, error::Error>
+    where
+        T: Send + 'static,
+        F: FnOnce(&AppState) -> Result<T, error::Error> + Send + 'static,
+    {
         let state = self.clone();
         // Lines the ledger logs go where the caller's go, in the request's span (its id).
         let span = tracing::Span::current();
         let dispatch = tracing::dispatcher::get_default(|d| d.clone());
         tokio::task::spawn_blocking(move || {
-            tracing::dispatcher::with_default(&dispatch, || {
-                span.in_scope(|| f(&mut state.ledger()))
-            })
+            tracing::dispatcher::with_default(&dispatch, || span.in_scope(|| f(&state)))
         })
         .await
         .map_err(anyhow::Error::from)?

@@ -1,9 +1,10 @@
 //! Finished tiles read back for assembly and previews, and the files of a job (its image).
 //!
-//! A tile's pixels are stored in its `done` row of the database, in the compact form of
-//! [`tile_encoding`] (every f32 kept to the bit), by the same commit that records the tile (see
-//! [`crate::db`]); this store reads them on a connection of its own, so reading a whole job's
-//! tiles never holds the ledger, and checks each against the hash recorded with it. A job's
+//! A tile's accepted upload ([`TileUpload`], its pixels with the worker's report) is stored in
+//! its `done` row of the database in the compact form of [`tile_encoding`] (every f32 kept to
+//! the bit; a compact upload's bytes as the worker sent them), by the same commit that records
+//! the tile (see [`crate::db`]). This store reads them on a connection of its own, so reading a
+//! whole job's tiles never holds the ledger, and checks each against the hash recorded with it. A job's
 //! directory, `DATA/jobs/<job>/`, holds only its final `image.exr`.
 //!
 //! All functions here block; call them from `spawn_blocking`.
@@ -13,15 +14,16 @@ use std::sync::{Arc, Mutex};
 
 use anyhow::Context;
 use rusqlite::Connection;
-use spindle_common::protocol::pixel_hash;
+use spindle_common::protocol::{TileUpload, pixel_hash};
 use spindle_common::tile::TilePixels;
 use spindle_common::tile_encoding;
 
 use crate::db;
 
-/// The most bytes a stored tile may inflate to: a 256-pixel tile's four layers as MessagePack
-/// f32s (5 bytes each) are under 4 MB; its statistics add little.
-const MAX_DECODED_TILE_BYTES: usize = 8 << 20;
+/// What a stored upload may inflate to beyond the upload limit: an upload accepted as JSON is
+/// stored re-encoded, where an f32 takes 5 bytes, and a 256-pixel tile's four layers take
+/// under 4 MB of them.
+const STORED_PIXELS_MARGIN: usize = 8 << 20;
 
 /// Why a recorded tile could not be read back.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -42,12 +44,19 @@ pub struct TileStore {
     /// A read-only connection to the coordinator's database (WAL: reading never blocks the
     /// ledger's commits, and sees every committed tile).
     reader: Arc<Mutex<Connection>>,
+    /// The most bytes a stored upload may inflate to.
+    max_decoded: usize,
 }
 
 impl TileStore {
     /// A store of job directories under `root` (created if missing), reading tiles from the
-    /// database at `database`, which [`db::open`] has already brought up to date.
-    pub fn open(root: PathBuf, database: &Path) -> anyhow::Result<TileStore> {
+    /// database at `database`, which [`db::open`] has already brought up to date, whose uploads
+    /// were accepted within `max_upload_bytes` (decoded).
+    pub fn open(
+        root: PathBuf,
+        database: &Path,
+        max_upload_bytes: usize,
+    ) -> anyhow::Result<TileStore> {
         std::fs::create_dir_all(&root).with_context(|| format!("creating {}", root.display()))?;
         let reader = Connection::open(database)
             .with_context(|| format!("opening {} for reading tiles", database.display()))?;
@@ -56,6 +65,7 @@ impl TileStore {
         Ok(TileStore {
             root,
             reader: Arc::new(Mutex::new(reader)),
+            max_decoded: max_upload_bytes.saturating_add(STORED_PIXELS_MARGIN),
         })
     }
 
@@ -78,7 +88,7 @@ impl TileStore {
         };
         let stored = {
             let reader = self.reader.lock().unwrap_or_else(|e| e.into_inner());
-            db::tile_pixels(&reader, job, index)
+            db::tile_upload(&reader, job, index)
         };
         let bytes = match stored {
             Ok(Some(bytes)) => bytes,
@@ -88,12 +98,12 @@ impl TileStore {
                 return Err(ReadError::Io(format!("reading tile {index}: {e}")));
             }
         };
-        let pixels: TilePixels = tile_encoding::decode(&bytes, MAX_DECODED_TILE_BYTES)
+        let upload: TileUpload = tile_encoding::decode(&bytes, self.max_decoded)
             .map_err(|e| damaged(format!("does not parse ({e})")))?;
-        if pixel_hash(&pixels) != hash {
+        if pixel_hash(&upload.pixels) != hash {
             return Err(damaged("does not hash to the recorded result".into()));
         }
-        Ok(pixels)
+        Ok(upload.pixels)
     }
 
     /// Removes a job's directory and everything in it.
@@ -116,7 +126,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let database = dir.path().join("spindle.db");
         let writer = db::open(&database).unwrap();
-        let store = TileStore::open(dir.path().join("jobs"), &database).unwrap();
+        let store = TileStore::open(dir.path().join("jobs"), &database, 1 << 20).unwrap();
         writer
             .execute(
                 "INSERT INTO jobs (id, spec, priority, state, request_hash, created_ms)
@@ -127,9 +137,9 @@ mod tests {
         let store_row = |bytes: Option<&[u8]>| {
             writer
                 .execute(
-                    "INSERT INTO tiles (job_id, tile_index, state, epoch, pixels)
+                    "INSERT INTO tiles (job_id, tile_index, state, epoch, upload)
                      VALUES (1, 4, 'done', 1, ?1)
-                     ON CONFLICT (job_id, tile_index) DO UPDATE SET pixels = ?1",
+                     ON CONFLICT (job_id, tile_index) DO UPDATE SET upload = ?1",
                     params![bytes],
                 )
                 .unwrap();
@@ -145,7 +155,15 @@ mod tests {
         pixels.surface[2] = f32::from_bits(0x0000_0001);
         pixels.single_scatter[17] = 1e30;
         let hash = pixel_hash(&pixels);
-        let encoded = tile_encoding::encode(&pixels).unwrap();
+        let upload = |pixels: &TilePixels| TileUpload {
+            worker_id: 3,
+            epoch: 1,
+            hash: pixel_hash(pixels),
+            pixels: pixels.clone(),
+            render_seconds: None,
+            provenance: None,
+        };
+        let encoded = tile_encoding::encode(&upload(&pixels)).unwrap();
         store_row(Some(&encoded));
         assert_eq!(store.read(1, 4, &hash).unwrap(), pixels);
 
@@ -158,7 +176,7 @@ mod tests {
         };
         let mut other = pixels.clone();
         other.total[0] = f32::from_bits(other.total[0].to_bits() ^ 1);
-        store_row(Some(&tile_encoding::encode(&other).unwrap()));
+        store_row(Some(&tile_encoding::encode(&upload(&other)).unwrap()));
         damaged(
             store.read(1, 4, &hash).unwrap_err(),
             "does not hash to the recorded result",

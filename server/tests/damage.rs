@@ -8,25 +8,24 @@ use std::time::Duration;
 
 use axum::http::{Method, StatusCode};
 use serde_json::json;
-use spindle_common::protocol::JobState;
-use spindle_common::tile::TilePixels;
+use spindle_common::protocol::{JobState, TileUpload};
 use spindle_common::tile_encoding;
 use support::*;
 
-/// Replaces the stored pixels of tile `index` of `job` in the coordinator's database, as a
+/// Replaces the stored upload of tile `index` of `job` in the coordinator's database, as a
 /// damaged disk would, beside the running coordinator.
 fn damage_tile(data: &Path, job: u64, index: u32, damage: impl FnOnce(Vec<u8>) -> Vec<u8>) {
     let db = rusqlite::Connection::open(data.join("spindle.db")).unwrap();
     db.busy_timeout(Duration::from_secs(5)).unwrap();
     let stored: Vec<u8> = db
         .query_row(
-            "SELECT pixels FROM tiles WHERE job_id = ?1 AND tile_index = ?2",
+            "SELECT upload FROM tiles WHERE job_id = ?1 AND tile_index = ?2",
             rusqlite::params![job as i64, index],
             |r| r.get(0),
         )
         .unwrap();
     db.execute(
-        "UPDATE tiles SET pixels = ?3 WHERE job_id = ?1 AND tile_index = ?2",
+        "UPDATE tiles SET upload = ?3 WHERE job_id = ?1 AND tile_index = ?2",
         rusqlite::params![job as i64, index, damage(stored)],
     )
     .unwrap();
@@ -59,9 +58,9 @@ async fn damaged_tiles_are_rendered_again_instead_of_failing_the_job() {
         bytes[..bytes.len() / 2].to_vec()
     });
     damage_tile(dir.path(), job.id, leases[1].tile_index, |bytes| {
-        let mut pixels: TilePixels = tile_encoding::decode(&bytes, 1 << 24).unwrap();
-        pixels.total[0] = f32::from_bits(pixels.total[0].to_bits() ^ 1);
-        tile_encoding::encode(&pixels).unwrap()
+        let mut upload: TileUpload = tile_encoding::decode(&bytes, 1 << 24).unwrap();
+        upload.pixels.total[0] = f32::from_bits(upload.pixels.total[0].to_bits() ^ 1);
+        tile_encoding::encode(&upload).unwrap()
     });
 
     let last = &leases[2];

@@ -182,11 +182,11 @@ async fn an_interrupted_assembly_is_finished_after_a_restart() {
     let upload = upload_for(&last, worker);
     let db = rusqlite::Connection::open(dir.path().join("spindle.db")).unwrap();
     db.execute(
-        "UPDATE tiles SET state = 'done', hash = ?1, stats = ?2, pixels = ?3 WHERE tile_index = ?4",
+        "UPDATE tiles SET state = 'done', hash = ?1, stats = ?2, upload = ?3 WHERE tile_index = ?4",
         rusqlite::params![
             upload.hash,
             serde_json::to_string(&upload.pixels.stats).unwrap(),
-            spindle_common::tile_encoding::encode(&upload.pixels).unwrap(),
+            spindle_common::tile_encoding::encode(&upload).unwrap(),
             last.tile_index
         ],
     )

@@ -205,32 +205,35 @@ async fn upload_tile(
     crate::metrics::upload_received(body.len());
     let encoding = UploadEncoding::of(&headers)?;
     let limit = state.config().limits.max_tile_upload_bytes;
-    // Decoding and hashing up to megabytes of floats is CPU work: off the runtime.
-    let (upload, stored) = tokio::task::spawn_blocking(move || {
-        let upload: TileUpload = match encoding {
-            UploadEncoding::Json => parse_json(&body)?,
-            UploadEncoding::Compact => {
-                tile_encoding::decode(&body, limit).map_err(|e| Error::BadRequest(e.to_string()))?
+    // Decoding and hashing up to megabytes of floats is CPU work, and recording commits: both
+    // off the runtime, on one blocking thread; the ledger is held only to record.
+    let (outcome, complete, epoch) = state
+        .off_runtime(move |state| {
+            let upload: TileUpload = match encoding {
+                UploadEncoding::Json => parse_json(&body)?,
+                UploadEncoding::Compact => tile_encoding::decode(&body, limit)
+                    .map_err(|e| Error::BadRequest(e.to_string()))?,
+            };
+            upload.check_report().map_err(Error::BadRequest)?;
+            let actual = pixel_hash(&upload.pixels);
+            if actual != upload.hash {
+                return Err(Error::BadRequest(format!(
+                    "hash: the pixels hash to {actual}, not {}",
+                    upload.hash
+                )));
             }
-        };
-        upload.check_report().map_err(Error::BadRequest)?;
-        let actual = pixel_hash(&upload.pixels);
-        if actual != upload.hash {
-            return Err(Error::BadRequest(format!(
-                "hash: the pixels hash to {actual}, not {}",
-                upload.hash
-            )));
-        }
-        // The form the pixels rest in, recorded by the same commit as the tile.
-        let stored = tile_encoding::encode(&upload.pixels).map_err(anyhow::Error::from)?;
-        Ok((upload, stored))
-    })
-    .await
-    .map_err(anyhow::Error::from)??;
-    identity.check("worker_id", upload.worker_id)?;
-    let epoch = upload.epoch;
-    let (outcome, complete) = state
-        .with_ledger(move |ledger| ledger.record_upload(job, tile, &upload, &stored))
+            identity.check("worker_id", upload.worker_id)?;
+            // The form the upload rests in, recorded by the same commit as the tile: a compact
+            // body as received.
+            let stored = match encoding {
+                UploadEncoding::Compact => body.to_vec(),
+                UploadEncoding::Json => {
+                    tile_encoding::encode(&upload).map_err(anyhow::Error::from)?
+                }
+            };
+            let (outcome, complete) = state.ledger().record_upload(job, tile, &upload, &stored)?;
+            Ok((outcome, complete, upload.epoch))
+        })
         .await?;
     crate::metrics::tile_stored(job, tile, epoch, outcome);
     if complete {
