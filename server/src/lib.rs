@@ -12,6 +12,7 @@ pub mod api;
 pub mod assemble;
 pub mod assets;
 pub mod auth;
+pub mod checkpoint;
 pub mod config;
 pub mod dashboard;
 pub mod db;
@@ -104,6 +105,7 @@ impl AppState {
         state.assemble_complete_jobs();
         state.spawn_loss_watch();
         retention::spawn(state.clone());
+        checkpoint::spawn(state.clone(), &state.config().data_dir.join("spindle.db"))?;
         Ok(state)
     }
 
