@@ -738,10 +738,10 @@ pub struct Lease {
     pub epoch: u64,
     /// The lease lapses this long after it was granted or last renewed.
     pub ttl_ms: u64,
-    /// A job with `film.time_budget_s` renders in progressive passes: render this pass (from
-    /// 1) of the tile, continuing from the previous pass's result (`GET
-    /// /v1/leases/{job}/{tile}/previous`), and upload it with its `pixels.progress`. Absent:
-    /// render the tile in one pass.
+    /// A job with `film.time_budget_s` renders in progressive passes, numbered from 1: render
+    /// this pass of the tile, continuing from the previous pass's result
+    /// (`GET /v1/leases/{job}/{tile}/previous`), and upload it with its `pixels.progress`.
+    /// Absent: render the tile in one pass.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pass: Option<u32>,
 }
