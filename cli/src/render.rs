@@ -181,14 +181,8 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
     // Read and check the scene here first, so a mistake is reported before any farm starts.
     let mut files = load_scene(&args.scene)?;
     args.edit(&mut files.desc);
-    if files.desc.film.time_budget_s.is_some() {
-        bail!(
-            "{}: film.time_budget_s: progressive passes run only in this process: add \
-             --workers 0 (or --no-time-budget to render to film.spp on the farm)",
-            args.scene.display()
-        );
-    }
-    let desc = files.desc.clone();
+    let mut desc = files.desc.clone();
+    let files_spp = desc.film.spp;
     if let Some(crop) = &args.crop {
         check_crop(crop, desc.film.width, desc.film.height).map_err(|e| anyhow!("--{e}"))?;
     }
@@ -218,9 +212,18 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
         .context("the local coordinator sent an unreadable EXR")?;
     let stats = result.job.stats;
     let per_worker: Vec<String> = result.tiles_per_worker.iter().map(u64::to_string).collect();
+    let passes = result.job.passes;
+    if let Some(p) = passes {
+        // The header says what the image is: the render of `spp` = the samples reached.
+        desc.film.spp = p.spp;
+    }
     let a = &mut image.attributes;
     describe(a, args, &desc, &stats, &provenance);
     a.insert("spindle.workers".into(), workers.to_string());
+    if let Some(p) = passes {
+        a.insert("spindle.passes".into(), p.pass.to_string());
+        a.insert("spindle.time_budget_s".into(), p.budget_s.to_string());
+    }
     let preview = write_outputs(&image, args)?;
     println!(
         "rendered {} ({}x{}{}, {} spp) on a local farm of {workers} workers in {:.2} s \
@@ -236,6 +239,12 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
         per_worker.join("+"),
     );
     println!("preview {}", preview.display());
+    if let Some(p) = passes {
+        println!(
+            "{} of {} spp in {} passes; the same bits: --workers 0 --no-time-budget --spp {}",
+            p.spp, files_spp, p.pass, p.spp
+        );
+    }
     print_stats(args, &stats, &image);
     Ok(())
 }

@@ -96,6 +96,12 @@ fn describe(j: &JobInfo) -> String {
     if let Some(eta) = j.eta_s.filter(|_| !j.state.is_finished()) {
         s.push_str(&format!("  eta       {eta:.1} s\n"));
     }
+    if let Some(p) = j.passes {
+        s.push_str(&format!(
+            "  passes    pass {} ({} spp; tiles count this pass), budget {} s\n",
+            p.pass, p.spp, p.budget_s
+        ));
+    }
     if let Some(noise) = j.relative_error {
         s.push_str(&format!(
             "  noise     {:.2} % (estimated relative RMS error of the tiles done)\n",
@@ -166,6 +172,7 @@ mod tests {
             provenance: None,
             relative_error: None,
             crop: None,
+            passes: None,
         }
     }
 
@@ -177,6 +184,23 @@ mod tests {
         });
         assert!(text.contains("  noise     1.23 % (estimated"), "{text}");
         assert!(!describe(&job(JobState::Running, 1)).contains("noise"));
+    }
+
+    #[test]
+    fn a_budgeted_job_shows_its_pass() {
+        let text = describe(&JobInfo {
+            passes: Some(spindle_common::protocol::PassInfo {
+                pass: 2,
+                spp: 32,
+                budget_s: 60.0,
+            }),
+            ..job(JobState::Running, 1)
+        });
+        assert!(
+            text.contains("  passes    pass 2 (32 spp; tiles count this pass), budget 60 s\n"),
+            "{text}"
+        );
+        assert!(!describe(&job(JobState::Running, 1)).contains("passes"));
     }
 
     #[test]

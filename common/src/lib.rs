@@ -6,6 +6,7 @@
 pub mod atomic_write;
 pub mod image;
 pub mod noise;
+pub mod passes;
 pub mod protocol;
 pub mod provenance;
 pub mod scene;

@@ -317,6 +317,24 @@ pub struct JobInfo {
     /// (`width` × `height`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub crop: Option<TileRect>,
+    /// A job with `film.time_budget_s`: the progressive pass being rendered (`tiles_done`
+    /// counts this pass's tiles) or, once the job is done, the last one, whose sample cap is the
+    /// image's `spp` (`spindle render --workers 0 --no-time-budget --spp N` reproduces it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub passes: Option<PassInfo>,
+}
+
+/// Where a budgeted job's progressive passes stand ([`JobInfo::passes`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PassInfo {
+    /// The pass (from 1).
+    pub pass: u32,
+    /// Its sample cap, `min(16 · pass, film.spp)`: the samples every pixel has after it (or
+    /// fewer, where a pixel met `film.target_error`).
+    pub spp: u32,
+    /// `film.time_budget_s`.
+    pub budget_s: f64,
 }
 
 /// How many tile failures a [`JobInfo`] keeps (the newest).
@@ -720,6 +738,12 @@ pub struct Lease {
     pub epoch: u64,
     /// The lease lapses this long after it was granted or last renewed.
     pub ttl_ms: u64,
+    /// A job with `film.time_budget_s` renders in progressive passes, numbered from 1: render
+    /// this pass of the tile, continuing from the previous pass's result
+    /// (`GET /v1/leases/{job}/{tile}/previous`), and upload it with its `pixels.progress`.
+    /// Absent: render the tile in one pass.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pass: Option<u32>,
 }
 
 /// What a worker needs to render a job's tiles.
@@ -846,7 +870,8 @@ pub struct TileFailure {
 
 /// The canonical bytes of a tile's pixels: the rectangle (`x, y, width, height` as u32
 /// little-endian), then each layer in [`crate::tile::LAYER_NAMES`] order as f32 little-endian
-/// bits. Statistics are not part of it.
+/// bits, then a progressive pass's state if there is one ([`crate::passes::TileProgress::canonical_bytes`]).
+/// Statistics are not part of it.
 pub fn canonical_pixel_bytes(pixels: &TilePixels) -> Vec<u8> {
     let floats: usize = pixels.layers().iter().map(|l| l.len()).sum();
     let mut bytes = Vec::with_capacity(16 + 4 * floats);
@@ -858,6 +883,9 @@ pub fn canonical_pixel_bytes(pixels: &TilePixels) -> Vec<u8> {
         for v in layer {
             bytes.extend_from_slice(&v.to_bits().to_le_bytes());
         }
+    }
+    if let Some(progress) = &pixels.progress {
+        progress.canonical_bytes(&mut bytes);
     }
     bytes
 }

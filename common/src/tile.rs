@@ -6,6 +6,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::passes::TileProgress;
 use crate::stats::RenderStats;
 
 /// A rectangle of pixels: columns `x .. x + width`, rows `y .. y + height` (row 0 at the top).
@@ -46,6 +47,11 @@ pub struct TilePixels {
     #[serde(deserialize_with = "finite_layer")]
     pub stderr: Vec<f32>,
     pub stats: RenderStats,
+    /// A progressive pass's result (a farm job with `film.time_budget_s`): every pixel's running
+    /// sums, from which the tile's next pass continues. Absent for one-pass results; never
+    /// part of the image.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub progress: Option<TileProgress>,
 }
 
 /// Reads a layer, refusing a value that is not a finite f32 with its index and value. Each
@@ -87,6 +93,7 @@ impl TilePixels {
             single_scatter: vec![0.0; n],
             stderr: vec![0.0; n],
             stats: RenderStats::default(),
+            progress: None,
         }
     }
 

@@ -133,6 +133,7 @@ mod tests {
             single_scatter: layer(2),
             stderr: layer(3),
             stats: RenderStats::default(),
+            progress: None,
         }
     }
 

@@ -26,6 +26,7 @@ pub mod scatter;
 pub mod scene;
 pub mod segment;
 pub mod tile;
+pub mod tile_pass;
 pub mod transform;
 pub mod transport;
 
@@ -34,4 +35,7 @@ pub use provenance::provenance;
 pub use rgb::Rgb;
 pub use scene::{Assets, Scene};
 pub use spindle_common::validate::SceneError;
-pub use tile::{PixelProgress, PixelValue, render_pixel, render_tile, render_tile_with_progress};
+pub use tile::{
+    PixelProgress, PixelValue, pixels_to_tile, render_pixel, render_tile, render_tile_with_progress,
+};
+pub use tile_pass::{PassError, render_tile_pass};

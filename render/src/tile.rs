@@ -5,6 +5,7 @@
 //! whichever tile, thread or worker renders it. Pixels run in parallel with rayon.
 
 use rayon::prelude::*;
+use spindle_common::passes::PixelSums;
 use spindle_common::scene::ADAPTIVE_BATCH;
 use spindle_common::stats::RenderStats;
 use spindle_common::tile::{TilePixels, TileRect};
@@ -58,6 +59,38 @@ pub struct PixelProgress {
 }
 
 impl PixelProgress {
+    /// A pixel's state resumed from its sums after an earlier pass (its statistics start at
+    /// zero: the earlier pass's counters travel with that pass's tile).
+    pub fn resume(sums: &PixelSums) -> PixelProgress {
+        PixelProgress {
+            sum: Radiance {
+                surface: Rgb::from_array(sums.surface),
+                single_scatter: Rgb::from_array(sums.single_scatter),
+            },
+            mean: Rgb::from_array(sums.mean),
+            m2: Rgb::from_array(sums.m2),
+            mean_y: sums.mean_y,
+            m2_y: sums.m2_y,
+            taken: sums.taken,
+            converged: sums.converged,
+            stats: RenderStats::default(),
+        }
+    }
+
+    /// The running sums, to the bit, for the next pass ([`PixelProgress::resume`]).
+    pub fn sums(&self) -> PixelSums {
+        PixelSums {
+            surface: self.sum.surface.to_array(),
+            single_scatter: self.sum.single_scatter.to_array(),
+            mean: self.mean.to_array(),
+            m2: self.m2.to_array(),
+            mean_y: self.mean_y,
+            m2_y: self.m2_y,
+            taken: self.taken,
+            converged: self.converged,
+        }
+    }
+
     /// Samples taken so far.
     pub fn taken(&self) -> u32 {
         self.taken
@@ -150,7 +183,7 @@ pub fn render_tile_with_progress(
 }
 
 /// The tile of `rect` from its pixels' values, in row-major order.
-pub(crate) fn pixels_to_tile<'a>(
+pub fn pixels_to_tile<'a>(
     rect: TileRect,
     values: impl Iterator<Item = &'a PixelValue>,
 ) -> TilePixels {

@@ -7,8 +7,11 @@ mod support;
 use glam::DVec3;
 use serde_json::json;
 use spindle_common::image::Image;
-use spindle_common::tile::TileRect;
-use spindle_render::{Assets, PASS_SPP, Scene, render_frame, render_frame_passes};
+use spindle_common::tile::{TilePixels, TileRect};
+use spindle_common::tile_encoding;
+use spindle_render::{
+    Assets, PASS_SPP, Scene, render_frame, render_frame_passes, render_tile, render_tile_pass,
+};
 use support::box_obj;
 
 /// A diffuse floor under a sphere light (a penumbra behind a box) and a glass sphere's single
@@ -129,4 +132,64 @@ fn passes_end_when_every_pixel_met_the_target() {
     assert_eq!(report.pixels_sampling, 0);
     assert!(report.spp < 4096, "{report:?}");
     assert!(stats.camera_rays <= REGION.pixel_count() as u64 * u64::from(report.spp));
+}
+
+/// On the farm a tile's passes run one at a time, each continuing from the previous pass's
+/// result as it travels (the compact encoding of uploads and stored tiles): after `k` passes
+/// the tile is, pixels and statistics, `render_tile` at `spp` = `min(16 k, film.spp)`, with and
+/// without adaptive sampling, up to a last pass that is not a whole 16 samples.
+#[test]
+fn a_tile_continued_pass_by_pass_is_the_one_pass_tile() {
+    let spp = 2 * PASS_SPP + 5;
+    for target_error in [None, Some(0.08)] {
+        let budgeted = scene(spp, target_error);
+        let mut previous: Option<TilePixels> = None;
+        for pass in 1..=3u32 {
+            let tile = render_tile_pass(&budgeted, REGION, pass, previous.as_ref()).unwrap();
+            let bytes = tile_encoding::encode(&tile).unwrap();
+            let tile: TilePixels = tile_encoding::decode(&bytes, 1 << 24).unwrap();
+            let cap = (pass * PASS_SPP).min(spp);
+            let progress = tile.progress.as_ref().unwrap();
+            assert_eq!((progress.pass, progress.spp), (pass, cap));
+            let expected = render_tile(&scene(cap, target_error), REGION);
+            let what = format!("target {target_error:?}, pass {pass}");
+            for (layer, (x, y)) in tile.layers().iter().zip(expected.layers()).enumerate() {
+                let differ = x
+                    .iter()
+                    .zip(y)
+                    .filter(|(p, q)| p.to_bits() != q.to_bits())
+                    .count();
+                assert_eq!(differ, 0, "{what}: layer {layer}: {differ} values differ");
+            }
+            assert_eq!(tile.stats, expected.stats, "{what}");
+            previous = Some(tile);
+        }
+    }
+}
+
+/// A pass that does not follow the given result (wrong pass, wrong tile, no state, a first
+/// pass given one) is refused with the reason, not rendered.
+#[test]
+fn a_pass_that_does_not_follow_its_previous_result_is_refused() {
+    let budgeted = scene(64, None);
+    let first = render_tile_pass(&budgeted, REGION, 1, None).unwrap();
+    let refused = |pass: u32, previous: Option<&TilePixels>, says: &str| {
+        let e = render_tile_pass(&budgeted, REGION, pass, previous)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(says), "pass {pass}: {e}");
+    };
+    refused(0, None, "numbered from 1");
+    refused(2, None, "missing");
+    refused(1, Some(&first), "starts from no samples");
+    refused(3, Some(&first), "is pass 1 at 16 spp, not pass 2 at 32");
+    let mut moved = first.clone();
+    moved.rect.x += 1;
+    refused(2, Some(&moved), "the earlier result is of tile");
+    let mut stateless = first.clone();
+    stateless.progress = None;
+    refused(2, Some(&stateless), "carries no pass state");
+    let mut short = first;
+    short.progress.as_mut().unwrap().pixels.pop();
+    refused(2, Some(&short), "pixel states for 40 pixels");
 }

@@ -9,18 +9,13 @@
 
 use std::collections::HashMap;
 
+use spindle_common::passes::MAX_PASS_TILE_SIZE;
 use spindle_common::protocol::{SubmitJob, check_crop, is_hash};
 use spindle_common::scene::Shape;
 
 use crate::assets::AssetStore;
 use crate::error::Error;
 use crate::limits::Limits;
-
-/// Why a job with `film.time_budget_s` is refused: a farm job renders every tile to `spp` (or
-/// `target_error`); progressive passes exist only in `spindle render --workers 0`.
-pub const FARM_TIME_BUDGET: &str = "scene.film.time_budget_s: the farm does not run time \
-    budgets (progressive passes are only in `spindle render --workers 0`); remove it, or set \
-    film.spp to the samples a budgeted local render reached (its EXR's spindle.spp)";
 
 /// Admits `submit` or says why not.
 pub async fn admit(submit: &SubmitJob, limits: &Limits, assets: &AssetStore) -> Result<(), Error> {
@@ -31,10 +26,14 @@ pub async fn admit(submit: &SubmitJob, limits: &Limits, assets: &AssetStore) -> 
             format!("scene.{e}")
         })
     })?;
-    if submit.scene.film.time_budget_s.is_some() {
-        return Err(Error::BadRequest(FARM_TIME_BUDGET.into()));
-    }
     let film = &submit.scene.film;
+    if film.time_budget_s.is_some() && submit.tile_size > MAX_PASS_TILE_SIZE {
+        return Err(Error::BadRequest(format!(
+            "tile_size: {} is too large for a job with scene.film.time_budget_s, whose tiles \
+             carry each pixel's running sums between passes: at most {MAX_PASS_TILE_SIZE}",
+            submit.tile_size
+        )));
+    }
     if let Some(crop) = &submit.crop {
         check_crop(crop, film.width, film.height).map_err(Error::BadRequest)?;
     }

@@ -29,6 +29,7 @@ use tokio::time::Instant;
 use crate::db::{self, JobRow, TileRowState};
 use crate::error::Error;
 use crate::events::Events;
+use crate::passes::Passes;
 
 /// Worker failures on one tile that fail its job.
 pub const TILE_FAILURE_LIMIT: usize = 3;
@@ -164,6 +165,8 @@ pub struct Job {
     pub image_sha256: Option<String>,
     /// What the job's scene builds to, from the first tile that reported it.
     pub provenance: Option<Arc<Provenance>>,
+    /// A job with `film.time_budget_s`: its progressive passes ([`crate::passes`]).
+    pub passes: Option<Passes>,
 }
 
 /// One tile of a job.
@@ -189,7 +192,7 @@ pub enum TileStatus {
 }
 
 impl Tile {
-    const PENDING: Tile = Tile {
+    pub(crate) const PENDING: Tile = Tile {
         epoch: 0,
         worker: None,
         status: TileStatus::Pending,
@@ -211,6 +214,7 @@ impl Job {
         let rects = spec.tiles();
         let tiles = vec![Tile::PENDING; rects.len()];
         Job {
+            passes: Passes::of(&spec),
             tiles_total: rects.len() as u32,
             id,
             name: String::new(),
@@ -298,6 +302,10 @@ impl Job {
             provenance: self.provenance.as_deref().cloned(),
             relative_error: self.noise.relative_error(),
             crop: self.spec.crop,
+            passes: self
+                .passes
+                .as_ref()
+                .map(|p| p.info(self.spec.scene.film.spp)),
         }
     }
 
@@ -317,6 +325,9 @@ impl Job {
         self.rects = Vec::new();
         self.failed_by = HashMap::new();
         self.strikes = HashMap::new();
+        if let Some(passes) = &mut self.passes {
+            passes.release();
+        }
     }
 
     /// Rebuilds the per-tile state of a live job from its stored tile rows. Tiles recorded as
@@ -451,6 +462,7 @@ impl Ledger {
                     tx.commit()?;
                 }
             } else {
+                Ledger::restart_passes(&mut db, &job)?;
                 job.restore_tiles(&db, Some(now + grace))?;
             }
             let live = !job.state.is_finished();
@@ -735,6 +747,8 @@ impl Ledger {
             .jobs
             .get_mut(&id)
             .ok_or_else(|| Error::NotFound(format!("job {id} does not exist")))?;
+        Ledger::restart_passes(&mut self.db, job)?;
+        job.passes = Passes::of(&job.spec);
         job.restore_tiles(&self.db, None)?;
         job.state = JobState::Queued;
         job.error = None;
@@ -1045,7 +1059,10 @@ impl Ledger {
     pub fn take_jobs_to_assemble(&mut self) -> Vec<u64> {
         let mut ids = Vec::new();
         for job in self.jobs.values_mut() {
-            if job.is_complete() && !job.state.is_finished() && !job.assembling {
+            // A budgeted job's tiles are all in at the end of every pass; only after the last
+            // is it complete (`Ledger::end_of_pass`).
+            let last_pass = job.passes.as_ref().is_none_or(|p| p.complete);
+            if job.is_complete() && last_pass && !job.state.is_finished() && !job.assembling {
                 job.assembling = true;
                 ids.push(job.id);
             }

@@ -35,6 +35,7 @@ use crate::error::Error;
 use crate::jobs::{
     JOB_FAILURE_LIMIT, Job, Ledger, TILE_FAILURE_LIMIT, TileStatus, WORKER_STRIKE_LIMIT, now_ms,
 };
+use crate::passes::PassEnd;
 use spindle_common::protocol::TileError;
 
 /// What to do with an upload that passed the checks.
@@ -253,6 +254,7 @@ impl Ledger {
             job.state = JobState::Running;
             job.started_ms = Some(start);
         }
+        job.passes_started(start.unwrap_or_else(now_ms));
         let tile = &mut job.tiles[index as usize];
         tile.epoch = epoch;
         tile.worker = Some(worker);
@@ -268,6 +270,7 @@ impl Ledger {
             rect: job.rects[index as usize],
             epoch,
             ttl_ms: ttl.as_millis() as u64,
+            pass: job.passes.as_ref().map(|p| p.pass),
         };
         if start.is_some() {
             self.job_changed(id);
@@ -387,6 +390,7 @@ impl Ledger {
                 tile.epoch, upload.epoch, upload.worker_id
             )));
         }
+        job.check_pass(upload)?;
         Ok(UploadPlan::Store)
     }
 
@@ -436,6 +440,7 @@ impl Ledger {
         job.tiles_done += 1;
         job.stats.add(&upload.pixels.stats);
         job.noise.add(&noise);
+        job.pass_tile_done(index, upload);
         let seconds = job.tiles[index as usize]
             .leased_at
             .map(|at| at.elapsed().as_secs_f64());
@@ -454,6 +459,8 @@ impl Ledger {
             worker = upload.worker_id,
             "tile done"
         );
+        // A budgeted job's last tile of a pass may start the next pass instead.
+        let complete = complete && self.end_of_pass(id)? == PassEnd::Complete;
         Ok((TileOutcome::Accepted, complete))
     }
 

@@ -24,6 +24,7 @@ pub mod lease;
 pub mod limits;
 pub mod logging;
 pub mod metrics;
+pub mod passes;
 pub mod retention;
 pub mod serve;
 pub mod throttle;

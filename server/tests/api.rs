@@ -497,7 +497,7 @@ async fn the_openapi_document_lists_exactly_the_routes_served() {
         })
         .collect();
     assert_eq!(documented, routes_in_api_md());
-    assert_eq!(documented.len(), 28);
+    assert_eq!(documented.len(), 29);
     for (path, method, token) in &documented {
         let uri = path
             .replace("{hash}", &asset_hash(b""))

@@ -19,6 +19,7 @@ use spindle_common::protocol::{
     ApiError, Heartbeat, HeartbeatAck, JobSpec, Lease, LeaseRequest, RegisterWorker, TileAck,
     TileFailure, WORKER_SECRET_HEADER, WorkerRegistered,
 };
+use spindle_common::tile::TilePixels;
 use spindle_common::tile_encoding;
 
 /// How long to wait for a TCP connection to the coordinator.
@@ -29,6 +30,9 @@ const REQUEST_TIMEOUT: Duration = Duration::from_secs(30);
 const ASSET_TIMEOUT: Duration = Duration::from_secs(600);
 /// Slack on top of the long-poll wait before a lease request counts as lost.
 const LONG_POLL_SLACK: Duration = Duration::from_secs(15);
+/// The most bytes a previous pass's result may inflate to: a 256-pixel tile's layers (f32) and
+/// running sums (14 values per pixel, f64) as MessagePack with named fields, with room to spare.
+const MAX_PREVIOUS_PASS_BYTES: usize = 64 << 20;
 
 /// A failed request to the coordinator.
 #[derive(Debug, thiserror::Error)]
@@ -221,6 +225,17 @@ impl Client {
             .header(reqwest::header::CONTENT_TYPE, tile_encoding::CONTENT_TYPE)
             .body(encoded);
         decode(self.send(req).await?).await
+    }
+
+    /// `GET /v1/leases/{job}/{tile}/previous`: the tile's result of the previous progressive
+    /// pass, with its running sums ([`TilePixels::progress`]).
+    pub async fn previous_pass(&self, job_id: u64, tile: u32) -> Result<TilePixels, ClientError> {
+        let req = self
+            .http
+            .get(self.url(&format!("/v1/leases/{job_id}/{tile}/previous")));
+        let bytes = self.send(req).await?.bytes().await?;
+        tile_encoding::decode(&bytes, MAX_PREVIOUS_PASS_BYTES)
+            .map_err(|e| ClientError::Garbled(format!("the previous pass of tile {tile}: {e}")))
     }
 
     /// `POST /v1/leases/{job}/{tile}/fail`.

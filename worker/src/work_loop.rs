@@ -36,7 +36,7 @@ use crate::cache::{LoadError, SceneCache};
 use crate::client::{Client, ClientError, ErrorKind};
 use crate::lease_ref::LeaseRef;
 use crate::upload::{Delivery, RenderedTile, deliver};
-use spindle_render::render_tile;
+use spindle_render::{render_tile, render_tile_pass};
 
 /// Shortest and longest pause between heartbeats.
 const HEARTBEAT_MIN: Duration = Duration::from_millis(50);
@@ -246,7 +246,7 @@ impl Worker {
             stop.clone(),
             self.drain.clone(),
         ));
-        let outcome = match self.render(job, lease.rect, &stop).await {
+        let outcome = match self.render(job, &lease, &stop).await {
             Ok(Rendered::Pixels(tile)) => match self.deliver(worker_id, held, *tile, &stop).await {
                 Some(reason) => {
                     self.report_failure(worker_id, held, reason, false, &stop)
@@ -339,13 +339,16 @@ impl Worker {
         }
     }
 
-    /// Loads the job's scene (cached) and renders the tile on the render pool.
+    /// Loads the job's scene (cached) and renders the tile on the render pool: in one pass, or
+    /// the lease's progressive pass, continuing from the previous pass's result, fetched from
+    /// the coordinator.
     async fn render(
         &mut self,
         job_id: u64,
-        rect: spindle_common::tile::TileRect,
+        lease: &Lease,
         stop: &CancellationToken,
     ) -> anyhow::Result<Rendered> {
+        let rect = lease.rect;
         let scene = match self.cache.get(job_id, stop).await {
             Ok(scene) => scene,
             Err(LoadError::Broken(reason)) => {
@@ -377,15 +380,32 @@ impl Worker {
                 deterministic: false,
             });
         }
+        let previous = match lease.pass {
+            Some(pass) if pass > 1 => match self.previous_pass(lease, stop).await? {
+                Ok(previous) => Some(previous),
+                Err(outcome) => return Ok(outcome),
+            },
+            _ => None,
+        };
         let pool = self.pool.clone();
         let built = scene.clone();
+        let pass = lease.pass;
         let job = tokio::task::spawn_blocking(move || {
             let started = std::time::Instant::now();
-            let pixels = pool.install(|| render_tile(&built.scene, rect));
+            let pixels = pool.install(|| match pass {
+                None => Ok(render_tile(&built.scene, rect)),
+                Some(pass) => render_tile_pass(&built.scene, rect, pass, previous.as_ref()),
+            });
             (pixels, started.elapsed().as_secs_f64())
         });
         let (pixels, seconds) = match job.await {
-            Ok(pixels) => pixels,
+            Ok((Ok(pixels), seconds)) => (pixels, seconds),
+            Ok((Err(e), _)) => {
+                return Ok(Rendered::Failed {
+                    reason: format!("pass {}: {e}", pass.unwrap_or(1)),
+                    deterministic: false,
+                });
+            }
             Err(e) => {
                 return Ok(Rendered::Failed {
                     reason: format!("the renderer panicked: {}", panic_message(e)),
@@ -409,6 +429,41 @@ impl Worker {
             seconds,
             provenance: scene.provenance.clone(),
         })))
+    }
+}
+
+impl Worker {
+    /// Fetches the previous pass's result of the leased tile, retrying transient failures;
+    /// `Err` is what the lease comes to when it cannot be had (reported as failed with the
+    /// coordinator's reason).
+    async fn previous_pass(
+        &self,
+        lease: &Lease,
+        stop: &CancellationToken,
+    ) -> anyhow::Result<Result<TilePixels, Rendered>> {
+        let (job, tile) = (lease.job_id, lease.tile_index);
+        let salt = self.worker_id.unwrap_or_default();
+        let fetched = retry(
+            self.config.backoff,
+            salt,
+            stop,
+            "fetching the previous pass",
+            || self.client.previous_pass(job, tile),
+        )
+        .await;
+        Ok(match fetched {
+            Ok(previous) => Ok(previous),
+            Err(RetryEnd::Stopped) => Err(Rendered::Abandoned),
+            Err(RetryEnd::Failed(e)) => match e.kind() {
+                ErrorKind::Unauthorized => return Err(fatal(e, "fetching the previous pass")),
+                // Lost (the failure report is then refused as stale, harmlessly) or damaged:
+                // the failure rules decide.
+                _ => Err(Rendered::Failed {
+                    reason: format!("fetching the previous pass of tile {tile}: {e}"),
+                    deterministic: false,
+                }),
+            },
+        })
     }
 }
 

@@ -25,6 +25,7 @@ use crate::error::Error;
 use crate::extract::{ApiPath, JsonBody, RawBody, parse_json};
 use crate::limits::Limits;
 use crate::throttle;
+use crate::tile_store::ReadError;
 use crate::worker_secret::WorkerIdentity;
 
 pub(super) fn routes(limits: &Limits) -> Declared {
@@ -38,6 +39,7 @@ pub(super) fn routes(limits: &Limits) -> Declared {
             routes!(upload_tile).layer(DefaultBodyLimit::max(limits.max_tile_upload_bytes)),
         ),
         (Role::Worker, routes!(fail_tile)),
+        (Role::Worker, routes!(previous_pass)),
     ]
 }
 
@@ -238,6 +240,9 @@ async fn upload_tile(
     crate::metrics::tile_stored(job, tile, epoch, outcome);
     if complete {
         state.assemble_complete_jobs();
+    } else if upload.pixels.progress.is_some() {
+        // The last tile of a pass queues the next pass's tiles: wake the lease polls.
+        state.work_available();
     }
     Ok(Json(TileAck { outcome }))
 }
@@ -297,4 +302,34 @@ async fn fail_tile(
     crate::metrics::tile_failed();
     state.work_available();
     Ok(StatusCode::NO_CONTENT)
+}
+
+/// The previous progressive pass's result of a tile whose current pass the calling worker
+/// holds (a job with `film.time_budget_s`): the stored `TilePixels` with its `progress`, in the
+/// compact form of uploads, from which the worker continues the tile ([`crate::passes`]).
+#[utoipa::path(get, path = "/v1/leases/{job}/{tile}/previous",
+    params(("job" = u64, Path, description = "job id"), ("tile" = u32, Path, description = "tile index")),
+    responses((status = 200, description = "the previous pass's TilePixels, MessagePack compressed with zstd",
+               content_type = "application/vnd.spindle.tile+msgpack+zstd", body = Vec<u8>),
+              (status = 404, body = ApiError, description = "no such job or tile, or the tile is in its first pass"),
+              (status = 409, body = ApiError, description = "the tile is not leased to this worker, or its previous result is damaged")))]
+async fn previous_pass(
+    State(state): State<AppState>,
+    identity: WorkerIdentity,
+    ApiPath((job, tile)): ApiPath<(u64, u32)>,
+) -> Result<Response, Error> {
+    let hash = state.ledger().previous_result(job, tile, identity.0)?;
+    let store = state.tile_store().clone();
+    let bytes = tokio::task::spawn_blocking(move || {
+        let pixels = store.read(job, tile, &hash).map_err(|e| match e {
+            // The pass cannot go on from it: the worker reports the tile as failed, and the
+            // failure rules decide (not retried forever).
+            ReadError::Damaged(why) => Error::Conflict(why),
+            ReadError::Io(why) => Error::Internal(anyhow::anyhow!(why)),
+        })?;
+        tile_encoding::encode(&pixels).map_err(|e| Error::Internal(anyhow::anyhow!("{e}")))
+    })
+    .await
+    .map_err(anyhow::Error::from)??;
+    Ok(([(header::CONTENT_TYPE, tile_encoding::CONTENT_TYPE)], bytes).into_response())
 }
