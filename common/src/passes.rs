@@ -77,6 +77,6 @@ pub fn pass_cap(pass: u32, spp: u32) -> u32 {
 
 /// The largest tile edge of a job in passes: a result then carries about 200 bytes of running
 /// sums per pixel besides its layers, and a 128-pixel tile's (3.3 MB of sums, 1 MB of layers as
-/// MessagePack) stays within what the coordinator reads back from its tile store (8 MB) and
-/// takes in an upload (16 MB by default).
+/// MessagePack) stays within what the coordinator takes in an upload (16 MB by default, decoded)
+/// and so reads back from its tile store.
 pub const MAX_PASS_TILE_SIZE: u32 = 128;

@@ -686,6 +686,17 @@ pub fn requeue_tile(tx: &Transaction<'_>, job: u64, index: u32) -> rusqlite::Res
     Ok(())
 }
 
+/// Puts a done tile of a job with a time budget back in the queue for its next pass, keeping
+/// its result (`hash`, `upload`): the next pass continues from it, and replaces it when done.
+pub fn next_pass_tile(tx: &Transaction<'_>, job: u64, index: u32) -> rusqlite::Result<()> {
+    tx.execute(
+        "UPDATE tiles SET state = 'pending', stats = NULL, render_seconds = NULL, noise = NULL
+         WHERE job_id = ?1 AND tile_index = ?2",
+        params![job as i64, index],
+    )?;
+    Ok(())
+}
+
 /// Forgets a worker (lost long ago); failures it reported keep its id, without a name.
 pub fn delete_worker(conn: &Connection, worker: u64) -> rusqlite::Result<()> {
     conn.execute("DELETE FROM workers WHERE id = ?1", [worker as i64])?;

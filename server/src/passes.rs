@@ -194,7 +194,7 @@ impl Ledger {
         let results = db::done_tiles(&self.db, id)?;
         let tx = self.db.transaction()?;
         for (index, _) in &results {
-            db::requeue_tile(&tx, id, *index)?;
+            db::next_pass_tile(&tx, id, *index)?;
         }
         tx.commit()?;
         let job = self.job_mut(id)?;
