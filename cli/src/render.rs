@@ -220,10 +220,6 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
     let a = &mut image.attributes;
     describe(a, args, &desc, &stats, &provenance);
     a.insert("spindle.workers".into(), workers.to_string());
-    if let Some(p) = passes {
-        a.insert("spindle.passes".into(), p.pass.to_string());
-        a.insert("spindle.time_budget_s".into(), p.budget_s.to_string());
-    }
     let preview = write_outputs(&image, args)?;
     println!(
         "rendered {} ({}x{}{}, {} spp) on a local farm of {workers} workers in {:.2} s \

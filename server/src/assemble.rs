@@ -18,7 +18,7 @@
 use std::time::Duration;
 
 use spindle_common::image::Image;
-use spindle_common::protocol::JobSpec;
+use spindle_common::protocol::{JobSpec, PassInfo};
 use spindle_common::provenance::Provenance;
 use spindle_common::stats::RenderStats;
 
@@ -71,6 +71,7 @@ pub fn attributes(
     spec: &JobSpec,
     stats: &RenderStats,
     provenance: Option<&Provenance>,
+    passes: Option<&PassInfo>,
 ) -> anyhow::Result<Vec<(String, String)>> {
     let film = &spec.scene.film;
     let window = spec.window();
@@ -95,6 +96,14 @@ pub fn attributes(
     if let Some(provenance) = provenance {
         attributes.extend(provenance.header_attributes());
     }
+    // A job with a time budget: how many passes reached `spindle.spp` (the job's spp by then).
+    if let Some(passes) = passes {
+        attributes.push(("spindle.passes".to_string(), passes.pass.to_string()));
+        attributes.push((
+            "spindle.time_budget_s".to_string(),
+            passes.budget_s.to_string(),
+        ));
+    }
     Ok(attributes)
 }
 
@@ -107,6 +116,7 @@ pub fn write_final(
     tiles: &[(u32, String)],
     stats: &RenderStats,
     provenance: Option<&Provenance>,
+    passes: Option<&PassInfo>,
 ) -> Result<String, AssembleError> {
     let expected = spec.tiles().len();
     if tiles.len() != expected {
@@ -119,7 +129,7 @@ pub fn write_final(
     }
     image
         .attributes
-        .extend(attributes(spec, stats, provenance)?);
+        .extend(attributes(spec, stats, provenance, passes)?);
     let bytes = image.to_exr_bytes().map_err(anyhow::Error::from)?;
     std::fs::create_dir_all(store.job_dir(job)).map_err(anyhow::Error::from)?;
     spindle_common::atomic_write::write(store.image_path(job), &bytes)
@@ -148,20 +158,31 @@ pub(crate) async fn finish(state: AppState, id: u64) {
                     .job(id)
                     .ok()
                     .filter(|job| !job.state.is_finished())
-                    .map(|job| (job.spec.clone(), job.stats, job.provenance.clone()))
-                    .and_then(|(spec, stats, provenance)| {
-                        Some((spec, stats, provenance, ledger.done_tiles(id).ok()?))
+                    .map(|job| {
+                        let passes = job.passes.as_ref().map(|p| p.info(job.spec.scene.film.spp));
+                        (job.spec.clone(), job.stats, job.provenance.clone(), passes)
+                    })
+                    .and_then(|(spec, stats, provenance, passes)| {
+                        Some((spec, stats, provenance, passes, ledger.done_tiles(id).ok()?))
                     }))
             })
             .await
             .ok()
             .flatten();
-        let Some((spec, stats, provenance, tiles)) = prepared else {
+        let Some((spec, stats, provenance, passes, tiles)) = prepared else {
             return; // Deleted or cancelled meanwhile.
         };
         let store = state.tile_store().clone();
         let result = tokio::task::spawn_blocking(move || {
-            write_final(&store, id, &spec, &tiles, &stats, provenance.as_deref())
+            write_final(
+                &store,
+                id,
+                &spec,
+                &tiles,
+                &stats,
+                provenance.as_deref(),
+                passes.as_ref(),
+            )
         })
         .await
         .unwrap_or_else(|e| Err(AssembleError::Transient(e.into())));

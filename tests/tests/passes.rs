@@ -47,10 +47,18 @@ async fn a_budgeted_job_runs_its_passes_and_equals_the_one_pass_render() {
         // render's.
         assert_eq!(done.stats.camera_rays, 24 * 16 * 40);
         let image = farm.image(job.id).await?;
-        assert_eq!(
-            image.attributes.get("spindle.spp").map(String::as_str),
-            Some("40")
-        );
+        // The header of `spindle render --workers 0` with the same budget.
+        for (name, value) in [
+            ("spindle.spp", "40"),
+            ("spindle.passes", "3"),
+            ("spindle.time_budget_s", "3600"),
+        ] {
+            assert_eq!(
+                image.attributes.get(name).map(String::as_str),
+                Some(value),
+                "{name}"
+            );
+        }
 
         let mut reference_scene = scene.clone();
         reference_scene["film"]
