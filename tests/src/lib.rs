@@ -228,6 +228,16 @@ impl Farm {
         Farm::start_with(lease_ttl_s, false).await
     }
 
+    /// [`Farm::start`] with two registered workers, `w1` and `w2`, of one thread each.
+    pub async fn of_two_workers(lease_ttl_s: f64) -> Result<Farm> {
+        let mut farm = Farm::start(lease_ttl_s).await?;
+        farm.add_worker("w1", 1)?;
+        farm.add_worker("w2", 1)?;
+        farm.wait_registered(0).await?;
+        farm.wait_registered(1).await?;
+        Ok(farm)
+    }
+
     /// [`Farm::start`], serving HTTPS with a certificate of a throwaway CA when `tls`.
     pub async fn start_with(lease_ttl_s: f64, tls: bool) -> Result<Farm> {
         Farm::start_full(lease_ttl_s, tls, false).await

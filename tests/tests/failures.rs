@@ -16,16 +16,6 @@ async fn bounded(body: impl Future<Output = anyhow::Result<()>>) {
     }
 }
 
-/// A farm of two workers, registered.
-async fn two_workers(lease_ttl_s: f64) -> anyhow::Result<Farm> {
-    let mut farm = Farm::start(lease_ttl_s).await?;
-    farm.add_worker("w1", 1)?;
-    farm.add_worker("w2", 1)?;
-    farm.wait_registered(0).await?;
-    farm.wait_registered(1).await?;
-    Ok(farm)
-}
-
 /// A light of 1e300 validates but renders +inf: the tile can never be uploaded. It used to be
 /// dropped by the worker and leased again forever ("running 0/1").
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -33,7 +23,7 @@ async fn pixels_beyond_f32_fail_the_job_with_the_reason_instead_of_looping() {
     bounded(async {
         let (mut scene, assets) = test_scene(16, 16, 1);
         scene["lights"][0]["intensity"] = serde_json::json!([1e300, 1e300, 1e300]);
-        let farm = two_workers(1.0).await?;
+        let farm = Farm::of_two_workers(1.0).await?;
         let job = farm.submit(&scene, &assets, 16).await?;
         let end = farm
             .wait_job(job.id, Duration::from_secs(30), |j| j.state.is_finished())
@@ -61,7 +51,7 @@ async fn a_scene_no_worker_can_build_fails_at_once_with_the_reason() {
             "meshes/floor.obj".into(),
             b"v -4 0 -4\nv 4 0 -4\nv 4 0 4\nf 1 2 9\n".to_vec(),
         );
-        let farm = two_workers(5.0).await?;
+        let farm = Farm::of_two_workers(5.0).await?;
         let job = farm.submit(&scene, &assets, 8).await?;
         let end = farm
             .wait_job(job.id, Duration::from_secs(30), |j| j.state.is_finished())

@@ -49,11 +49,7 @@ async fn two_workers_render_a_job_bit_identical_to_one_process() {
         let reference = reference_image(&scene, &assets)?;
         // The single-scattering layer must carry light, or its bit identity proves nothing.
         assert!(reference.single_scatter.iter().any(|&v| v > 0.0));
-        let mut farm = Farm::start(5.0).await?;
-        farm.add_worker("w1", 1)?;
-        farm.add_worker("w2", 1)?;
-        farm.wait_registered(0).await?;
-        farm.wait_registered(1).await?;
+        let farm = Farm::of_two_workers(5.0).await?;
         let job = farm.submit(&scene, &assets, 8).await?;
         let done = farm.wait_done(job.id, Duration::from_secs(120)).await?;
         let image = farm.image(job.id).await?;

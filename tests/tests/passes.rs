@@ -20,15 +20,6 @@ async fn bounded(body: impl Future<Output = anyhow::Result<()>>) {
     }
 }
 
-async fn farm_of_two() -> anyhow::Result<Farm> {
-    let mut farm = Farm::start(5.0).await?;
-    farm.add_worker("w1", 1)?;
-    farm.add_worker("w2", 1)?;
-    farm.wait_registered(0).await?;
-    farm.wait_registered(1).await?;
-    Ok(farm)
-}
-
 /// A budget the job cannot spend: every pass runs, up to `spp` = 40 (passes of 16, 32, 40
 /// samples, the last not a whole pass), and the image is the one-pass render at 40 spp. The
 /// header and the job say 40 spp in 3 passes.
@@ -37,7 +28,7 @@ async fn a_budgeted_job_runs_its_passes_and_equals_the_one_pass_render() {
     bounded(async {
         let (mut scene, assets) = scattering_test_scene(24, 16, 40);
         scene["film"]["time_budget_s"] = serde_json::json!(3600);
-        let farm = farm_of_two().await?;
+        let farm = Farm::of_two_workers(5.0).await?;
         let job = farm.submit(&scene, &assets, 8).await?;
         let done = farm.wait_done(job.id, Duration::from_secs(120)).await?;
         let passes = done.passes.expect("a budgeted job reports its passes");
@@ -80,7 +71,7 @@ async fn a_budget_spent_by_the_first_pass_ends_the_job_after_it() {
     bounded(async {
         let (mut scene, assets) = scattering_test_scene(24, 16, 64);
         scene["film"]["time_budget_s"] = serde_json::json!(0.001);
-        let farm = farm_of_two().await?;
+        let farm = Farm::of_two_workers(5.0).await?;
         let job = farm.submit(&scene, &assets, 8).await?;
         let done = farm.wait_done(job.id, Duration::from_secs(120)).await?;
         let passes = done.passes.expect("a budgeted job reports its passes");
