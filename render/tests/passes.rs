@@ -2,54 +2,24 @@
 //! the one-pass render of `film.spp` = `k · PASS_SPP` through the tile driver — which is what
 //! lets `spindle render --workers 0 --no-time-budget --spp N` reproduce a budgeted image.
 
+#[path = "support/penumbra.rs"]
+mod penumbra;
 mod support;
 
-use glam::DVec3;
 use serde_json::json;
-use spindle_common::image::Image;
 use spindle_common::tile::{TilePixels, TileRect};
 use spindle_common::tile_encoding;
 use spindle_render::{
-    Assets, PASS_SPP, Scene, render_frame, render_frame_passes, render_tile, render_tile_pass,
+    PASS_SPP, Scene, render_frame, render_frame_passes, render_tile, render_tile_pass,
 };
-use support::box_obj;
 
-/// A diffuse floor under a sphere light (a penumbra behind a box) and a glass sphere's single
-/// scattering, 10 × 7 pixels: noisy enough that adaptive pixels stop after different batches.
+/// The penumbra scene, 10 × 7 pixels, with a time budget.
 fn scene(spp: u32, target_error: Option<f64>) -> Scene {
-    let floor = box_obj(
-        DVec3::new(-10.0, -10.0, -1.0),
-        DVec3::new(10.0, 10.0, 0.0),
-        false,
-    );
-    let blocker = box_obj(
-        DVec3::new(-0.2, -3.0, 0.0),
-        DVec3::new(3.0, 3.0, 1.5),
-        false,
-    );
-    let assets = Assets::from([
-        ("floor.obj".to_string(), floor.into_bytes()),
-        ("blocker.obj".to_string(), blocker.into_bytes()),
-    ]);
-    let desc = serde_json::from_value(json!({
-        "camera": {"position": [-1.0, 0.0, 6.0], "look_at": [-1.0, 0.0, 0.0], "fov_y": 30},
-        "film": {"width": 10, "height": 7, "spp": spp, "seed": 5, "target_error": target_error,
-                 "time_budget_s": 1.0},
-        "lights": [{"type": "sphere", "center": [0.0, 0.0, 3.0], "radius": 0.6,
-                    "radiance": [10, 10, 10]}],
-        "objects": [
-            {"shape": {"type": "obj", "path": "floor.obj"},
-             "material": {"type": "diffuse", "reflectance": [0.7, 0.7, 0.7]}},
-            {"shape": {"type": "obj", "path": "blocker.obj"},
-             "material": {"type": "diffuse", "reflectance": [0.2, 0.2, 0.2]}},
-            {"shape": {"type": "icosphere", "radius": 0.5, "subdivisions": 1},
-             "transform": {"translate": [-1.5, 0.0, 0.8]},
-             "material": {"type": "dielectric", "eta": 1.5,
-                          "medium": {"sigma_t": [1, 1, 1], "albedo": [0.9, 0.9, 0.9]}}}
-        ]
-    }))
-    .unwrap();
-    Scene::build(&desc, &assets).unwrap()
+    penumbra::scene(
+        30.0,
+        json!({"width": 10, "height": 7, "spp": spp, "seed": 5, "target_error": target_error,
+               "time_budget_s": 1.0}),
+    )
 }
 
 /// The sub-rectangle rendered: not at the origin, so the pixel coordinates are checked too.
@@ -60,8 +30,9 @@ const REGION: TileRect = TileRect {
     height: 5,
 };
 
-fn same_bits(a: &Image, b: &Image, what: &str) {
-    for (layer, (x, y)) in a.layers().iter().zip(b.layers()).enumerate() {
+/// `a` and `b` (an image's or a tile's layers) hold the same bits.
+fn same_bits(a: [&[f32]; 4], b: [&[f32]; 4], what: &str) {
+    for (layer, (x, y)) in a.iter().zip(b).enumerate() {
         let differ = x
             .iter()
             .zip(y)
@@ -90,7 +61,7 @@ fn stopping_after_k_passes_is_rendering_k_times_pass_spp() {
             let reference = scene(stop_after * PASS_SPP, target_error);
             let (expected, expected_stats) = render_frame(&reference, REGION, &|_| {}).unwrap();
             let what = format!("target {target_error:?}, {stop_after} passes");
-            same_bits(&image, &expected, &what);
+            same_bits(image.layers(), expected.layers(), &what);
             assert_eq!(stats, expected_stats, "{what}");
             // Every camera ray is a sample taken: without a target every pixel took them all.
             if target_error.is_none() {
@@ -120,7 +91,7 @@ fn passes_end_at_spp() {
     );
     assert_eq!(asked, 2);
     let (expected, _) = render_frame(&scene(spp, None), REGION, &|_| {}).unwrap();
-    same_bits(&image, &expected, "to spp");
+    same_bits(image.layers(), expected.layers(), "to spp");
 }
 
 /// With a target every pixel meets early (a loose 0.9), the passes stop by themselves once no
@@ -153,14 +124,7 @@ fn a_tile_continued_pass_by_pass_is_the_one_pass_tile() {
             assert_eq!((progress.pass, progress.spp), (pass, cap));
             let expected = render_tile(&scene(cap, target_error), REGION);
             let what = format!("target {target_error:?}, pass {pass}");
-            for (layer, (x, y)) in tile.layers().iter().zip(expected.layers()).enumerate() {
-                let differ = x
-                    .iter()
-                    .zip(y)
-                    .filter(|(p, q)| p.to_bits() != q.to_bits())
-                    .count();
-                assert_eq!(differ, 0, "{what}: layer {layer}: {differ} values differ");
-            }
+            same_bits(tile.layers(), expected.layers(), &what);
             assert_eq!(tile.stats, expected.stats, "{what}");
             previous = Some(tile);
         }

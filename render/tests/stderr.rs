@@ -1,50 +1,21 @@
 //! The `stderr` layer against the error it claims: the spread of a pixel's value over
 //! independent renders (other seeds) of the same scene.
 
+#[path = "support/penumbra.rs"]
+mod penumbra;
 mod support;
 
-use glam::DVec3;
 use serde_json::json;
 use spindle_common::tile::TileRect;
 use spindle_render::tile::render_pixel;
 use spindle_render::{Assets, Scene, render_tile};
-use support::box_obj;
 
-/// A diffuse floor lit by a sphere light half hidden behind an opaque box (a penumbra across
-/// the 6 × 6 pixels) and by a glass sphere's single scattering.
+/// The penumbra scene, 6 × 6 pixels.
 fn penumbra_scene(seed: u64, spp: u32, target_error: Option<f64>) -> Scene {
-    let floor = box_obj(
-        DVec3::new(-10.0, -10.0, -1.0),
-        DVec3::new(10.0, 10.0, 0.0),
-        false,
-    );
-    let blocker = box_obj(
-        DVec3::new(-0.2, -3.0, 0.0),
-        DVec3::new(3.0, 3.0, 1.5),
-        false,
-    );
-    let assets = Assets::from([
-        ("floor.obj".to_string(), floor.into_bytes()),
-        ("blocker.obj".to_string(), blocker.into_bytes()),
-    ]);
-    let desc = serde_json::from_value(json!({
-        "camera": {"position": [-1.0, 0.0, 6.0], "look_at": [-1.0, 0.0, 0.0], "fov_y": 25},
-        "film": {"width": 6, "height": 6, "spp": spp, "seed": seed, "target_error": target_error},
-        "lights": [{"type": "sphere", "center": [0.0, 0.0, 3.0], "radius": 0.6,
-                    "radiance": [10, 10, 10]}],
-        "objects": [
-            {"shape": {"type": "obj", "path": "floor.obj"},
-             "material": {"type": "diffuse", "reflectance": [0.7, 0.7, 0.7]}},
-            {"shape": {"type": "obj", "path": "blocker.obj"},
-             "material": {"type": "diffuse", "reflectance": [0.2, 0.2, 0.2]}},
-            {"shape": {"type": "icosphere", "radius": 0.5, "subdivisions": 1},
-             "transform": {"translate": [-1.5, 0.0, 0.8]},
-             "material": {"type": "dielectric", "eta": 1.5,
-                          "medium": {"sigma_t": [1, 1, 1], "albedo": [0.9, 0.9, 0.9]}}}
-        ]
-    }))
-    .unwrap();
-    Scene::build(&desc, &assets).unwrap()
+    penumbra::scene(
+        25.0,
+        json!({"width": 6, "height": 6, "spp": spp, "seed": seed, "target_error": target_error}),
+    )
 }
 
 const WHOLE: TileRect = TileRect {
