@@ -544,6 +544,21 @@ pub fn accepted_tiles(log: &str) -> usize {
 }
 
 /// A small scene with one OBJ asset (a box) and a procedural sphere, so assets travel.
+/// Writes `scene` as `dir/scene.json` and its assets beside it (at their relative paths, as a
+/// scene file names them); returns the scene file's path.
+pub fn write_scene_files(dir: &Path, scene: &Value, assets: &Assets) -> Result<PathBuf> {
+    for (path, bytes) in assets {
+        let file = dir.join(path);
+        if let Some(parent) = file.parent() {
+            std::fs::create_dir_all(parent)?;
+        }
+        std::fs::write(file, bytes)?;
+    }
+    let path = dir.join("scene.json");
+    std::fs::write(&path, serde_json::to_string_pretty(scene)?)?;
+    Ok(path)
+}
+
 pub fn test_scene(width: u32, height: u32, spp: u32) -> (Value, Assets) {
     let scene = serde_json::json!({
         "camera": { "position": [0.0, 1.2, 5.0], "look_at": [0.0, 0.8, 0.0], "fov_y": 35.0 },

@@ -9,7 +9,7 @@ use spindle_common::image::read_exr;
 use spindle_common::protocol::{JobInfo, JobState, WorkerList, WorkerState};
 use spindle_tests::{
     Farm, accepted_tiles, assert_bit_identical, binary, output_text, reference_image, run_spindle,
-    test_scene,
+    test_scene, write_scene_files,
 };
 
 const TEST_TIMEOUT: Duration = Duration::from_secs(150);
@@ -17,14 +17,7 @@ const TEST_TIMEOUT: Duration = Duration::from_secs(150);
 /// Writes the test scene and its mesh into `dir`; returns the scene file's path.
 fn write_scene(dir: &Path, width: u32, height: u32, spp: u32) -> std::path::PathBuf {
     let (scene, assets) = test_scene(width, height, spp);
-    for (path, bytes) in &assets {
-        let file = dir.join(path);
-        std::fs::create_dir_all(file.parent().unwrap()).unwrap();
-        std::fs::write(file, bytes).unwrap();
-    }
-    let path = dir.join("scene.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&scene).unwrap()).unwrap();
-    path
+    write_scene_files(dir, &scene, &assets).unwrap()
 }
 
 /// Runs `spindle` with `args` (killed if it outlives the test's timeout) and the farm's

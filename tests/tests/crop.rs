@@ -14,6 +14,7 @@ use spindle_common::protocol::{JobInfo, JobList, asset_hash};
 use spindle_common::tile::TileRect;
 use spindle_tests::{
     Farm, assert_bit_identical, output_text, reference_image, run_spindle, scattering_test_scene,
+    write_scene_files,
 };
 
 const TEST_TIMEOUT: Duration = Duration::from_secs(240);
@@ -33,14 +34,7 @@ const CROP_ARG: &str = "5,3,21,13";
 /// mesh into `dir`; returns the scene file's path.
 fn write_scene(dir: &Path) -> std::path::PathBuf {
     let (scene, assets) = scattering_test_scene(FILM.0, FILM.1, 2);
-    for (path, bytes) in &assets {
-        let file = dir.join(path);
-        std::fs::create_dir_all(file.parent().unwrap()).unwrap();
-        std::fs::write(file, bytes).unwrap();
-    }
-    let path = dir.join("scene.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&scene).unwrap()).unwrap();
-    path
+    write_scene_files(dir, &scene, &assets).unwrap()
 }
 
 /// Runs `spindle` with `args`, talking to `farm` if given.

@@ -8,6 +8,7 @@ use std::time::Duration;
 use spindle_common::image::{Image, read_exr};
 use spindle_tests::{
     Farm, assert_bit_identical, output_text, reference_image, run_spindle, scattering_test_scene,
+    write_scene_files,
 };
 
 /// The longest any test here may take before it fails by itself.
@@ -140,13 +141,7 @@ async fn the_local_farm_renders_a_budget_as_workers_0_renders_the_samples_it_rea
         let dir = tempfile::tempdir()?;
         let (mut scene, assets) = scattering_test_scene(20, 12, 40);
         scene["film"]["time_budget_s"] = serde_json::json!(3600);
-        for (path, bytes) in &assets {
-            let file = dir.path().join(path);
-            std::fs::create_dir_all(file.parent().unwrap())?;
-            std::fs::write(file, bytes)?;
-        }
-        let scene_file = dir.path().join("scene.json");
-        std::fs::write(&scene_file, serde_json::to_string_pretty(&scene)?)?;
+        let scene_file = write_scene_files(dir.path(), &scene, &assets)?;
         let (farm_exr, local_exr) = (dir.path().join("farm.exr"), dir.path().join("local.exr"));
         let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
         let out = run_spindle(
