@@ -584,3 +584,70 @@ async fn compact_uploads_are_read_and_bad_ones_refused_with_the_field() {
     );
     assert_eq!(c.wait_finished(job.id).await.state, JobState::Done);
 }
+
+/// `GET /v1/leases/{job}/{tile}/previous` answers only the tile's leaseholder, and only when
+/// there is a previous pass: 404 for a job without a time budget or a tile in its first pass,
+/// 409 for another worker, 403 without a worker secret.
+#[tokio::test]
+async fn the_previous_pass_is_refused_to_all_but_its_leaseholder() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = Coordinator::open(config(dir.path())).await;
+    let mut budgeted = scene(8, 8);
+    budgeted["film"]["time_budget_s"] = json!(60);
+    let budgeted = c.submit(json!({"scene": budgeted, "tile_size": 8})).await;
+    let plain = c
+        .submit(json!({"scene": scene(8, 8), "tile_size": 8}))
+        .await;
+    let holder = c.register("holder").await;
+    let other = c.register("other").await;
+    let first = c.lease(holder).await.unwrap();
+    let second = c.lease(holder).await.unwrap();
+    assert_eq!(
+        (first.pass, second.pass),
+        (Some(1), None),
+        "{first:?} {second:?}"
+    );
+    let previous = |job: u64| format!("/v1/leases/{job}/0/previous");
+    let error = |bytes: &[u8]| {
+        serde_json::from_slice::<serde_json::Value>(bytes).unwrap()["error"]
+            .as_str()
+            .unwrap()
+            .to_string()
+    };
+
+    let ask = |job: u64, worker: u64| {
+        let secret = c.secret(worker);
+        let uri = previous(job);
+        let c = c.share();
+        async move {
+            c.send_as(Method::GET, &uri, Some(WORKER), Some(&secret), "")
+                .await
+        }
+    };
+    let (status, body) = ask(budgeted.id, holder).await;
+    assert_eq!(status, StatusCode::NOT_FOUND);
+    assert!(
+        error(&body).contains("has no previous pass"),
+        "{}",
+        error(&body)
+    );
+    let (status, body) = ask(plain.id, holder).await;
+    assert_eq!(status, StatusCode::NOT_FOUND);
+    assert!(
+        error(&body).contains("has no time budget"),
+        "{}",
+        error(&body)
+    );
+    let (status, body) = ask(budgeted.id, other).await;
+    assert_eq!(status, StatusCode::CONFLICT);
+    assert!(
+        error(&body).contains("is not leased to worker"),
+        "{}",
+        error(&body)
+    );
+    let (status, body) = c
+        .send_as(Method::GET, &previous(budgeted.id), Some(WORKER), None, "")
+        .await;
+    assert_eq!(status, StatusCode::FORBIDDEN);
+    assert!(error(&body).contains("worker secret"), "{}", error(&body));
+}
