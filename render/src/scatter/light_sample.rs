@@ -8,21 +8,31 @@
 //! behind the tangent plane at `y` sees the sphere's other side there, so it gets nothing from
 //! this sample (which is also what a shadow ray against the sphere would say).
 //!
-//! The points come from a mixture of two densities (one-sample, weighted by the mixture's
-//! density, so unbiased). Most are drawn **by solid angle as seen from the object's centre**: the
-//! weight `L_e · cos_y / pdf_A` is then constant for a receiver at the centre and nearly so for
-//! receivers that see the light from about the same direction, which is what makes a small or
-//! distant sphere light about as quiet as a point light. The rest are drawn uniformly on the
-//! **cap of the sphere that can be seen from the object's bounding sphere** (a cone about the
-//! axis toward the object, of half-angle `acos(R/(d + r_o)) + asin(r_o/d)` for a light of radius
-//! `R` at distance `d` from the centre of an object of bounding radius `r_o`): every point visible
-//! from anywhere in the object can be drawn, and no weight exceeds `L_e / ((1 − share) pdf_cap)`.
-//! When the object's bounding sphere reaches the light, the cap is the whole sphere; when the
-//! centre is inside the light, only the cap is used. A quad light is sampled the same way: by
-//! solid angle from the object's centre (its spherical rectangle) with the same share, else
+//! The points come from a mixture of densities (one-sample, weighted by the mixture's density,
+//! so unbiased). Most are drawn **by solid angle as seen from the camera segment** — from its
+//! two ends and its middle, a third each ([`Receivers::of_segment`]): the weight
+//! `L_e · cos_y / pdf_A` is then nearly constant for receivers that see the light from about the
+//! direction an apex does, which is what makes a small or distant sphere light quiet. The rest
+//! are drawn uniformly on the **cap of the sphere that can be seen from the object's bounding
+//! sphere** (a cone about the axis toward the object, of half-angle `acos(R/(d + r_o)) +
+//! asin(r_o/d)` for a light of radius `R` at distance `d` from the centre of an object of
+//! bounding radius `r_o`): every point visible from anywhere in the object can be drawn, and no
+//! weight exceeds `L_e / ((1 − share) pdf_cap)`. When the object's bounding sphere reaches the
+//! light, the cap is the whole sphere; an apex inside the light has no share, and when every
+//! apex is, only the cap is used. A quad light is sampled the same way: by solid angle from each
+//! apex in front of it (its spherical rectangle seen from there) with the same share, else
 //! uniformly by area, which covers every point and bounds every weight by
-//! `L_e · A / (1 − share)`; by area alone when the centre is behind the quad or sees it under
-//! less than [`MIN_SOLID_ANGLE`](crate::light::rectangle::MIN_SOLID_ANGLE). Several lights are summed by the caller, one sample each.
+//! `L_e · A / (1 − share)`; by area alone when no apex is in front of the quad or sees it under
+//! less than [`MIN_SOLID_ANGLE`](crate::light::rectangle::MIN_SOLID_ANGLE). Several lights are
+//! summed by the caller, one sample each.
+//!
+//! Why the segment and not the object's centre: a light point serves every receiver of the
+//! segment at once (the refraction solve needs it fixed), and no density chosen without knowing
+//! the receivers does much better than the centre's on a whole object's lit side — the best
+//! single density for receivers spread over a unit sphere's lit side, a light of radius 0.1 at
+//! distance 4, still leaves a per-sample spread of 0.23 (on the axis) to 0.38 (at the rim)
+//! (docs/benchmarks.md §7b). A segment's receivers are fewer and closer together; sampled from
+//! the segment the sphere lights' error at 16 samples per pixel falls by a third.
 
 use glam::DVec3;
 
@@ -93,17 +103,48 @@ impl LightPoint {
     }
 }
 
-/// The share of sphere-light samples drawn by solid angle from the object's centre; the rest are
-/// uniform on the visible cap, which bounds every sample's weight for receivers anywhere in the
-/// object (the solid-angle density vanishes at the centre's horizon, where other receivers still
-/// see the light). Measured per-sample relative spread of the fluence estimate at receivers on
-/// the lit side of a unit sphere, light of radius 0.1 at distance 4: 0.84 for the cap alone;
-/// 0.17 (centre) to 0.42 (85° off axis) at this share, against 0.46–0.51 at a share of ½.
+/// The share of area-light samples drawn by solid angle from the apexes; the rest are uniform on
+/// the visible cap (sphere) or by area (quad), which bounds every sample's weight for receivers
+/// anywhere in the object (the solid-angle densities vanish at the apexes' horizons, where other
+/// receivers still see the light). Per-pixel relative error at 16 samples per pixel of the
+/// lights study (docs/benchmarks.md §7b), sphere light of radius 0.1: 0.042 at a share of 0.8,
+/// 0.034 at 0.9, 0.035 at 0.97 (radius 0.5: 0.048, 0.037, 0.046).
 pub const SOLID_ANGLE_SHARE: f64 = 0.9;
 
-/// The light point of `light` for a receiver anywhere in `object` (its bounding sphere), from two
-/// uniform numbers in `[0, 1)`.
-pub fn sample_light(light: &Light, object: BoundingSphere, u: [f64; 2]) -> LightPoint {
+/// Where the receivers of a light point are: anywhere in the object's bounding sphere, most of
+/// them near the camera segment.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Receivers {
+    pub object: BoundingSphere,
+    /// The points an area light is sampled by solid angle from, with equal shares.
+    pub apexes: [DVec3; APEXES],
+}
+
+/// How many points an area light is sampled by solid angle from.
+pub const APEXES: usize = 3;
+
+impl Receivers {
+    /// Receivers anywhere in `object`, most of them near the camera segment
+    /// `origin + t·dir, t ∈ [0, length]`: its two ends and its middle are the apexes.
+    pub fn of_segment(object: BoundingSphere, origin: DVec3, dir: DVec3, length: f64) -> Receivers {
+        Receivers {
+            object,
+            apexes: [origin, origin + 0.5 * length * dir, origin + length * dir],
+        }
+    }
+
+    /// Receivers anywhere in `object`, most of them near its centre.
+    pub fn about_centre(object: BoundingSphere) -> Receivers {
+        Receivers {
+            object,
+            apexes: [object.center; APEXES],
+        }
+    }
+}
+
+/// The light point of `light` for a receiver anywhere in `receivers.object` (its bounding
+/// sphere), from two uniform numbers in `[0, 1)`.
+pub fn sample_light(light: &Light, receivers: Receivers, u: [f64; 2]) -> LightPoint {
     match *light {
         Light::Point {
             position,
@@ -126,20 +167,8 @@ pub fn sample_light(light: &Light, object: BoundingSphere, u: [f64; 2]) -> Light
             radius,
             radiance,
         } => {
-            let sphere = SphereSampling::new(center, radius, object);
-            let (position, normal) = match sphere.solid_angle {
-                Some(cone) if u[0] < SOLID_ANGLE_SHARE => cone.sample(
-                    sphere.center,
-                    sphere.radius,
-                    [u[0] / SOLID_ANGLE_SHARE, u[1]],
-                ),
-                Some(_) => sphere.cap.sample(
-                    sphere.center,
-                    sphere.radius,
-                    [(u[0] - SOLID_ANGLE_SHARE) / (1.0 - SOLID_ANGLE_SHARE), u[1]],
-                ),
-                None => sphere.cap.sample(sphere.center, sphere.radius, u),
-            };
+            let sphere = SphereSampling::new(center, radius, receivers);
+            let (position, normal) = sphere.sample(u);
             // Every sample lies in the cap, whose share of the density is positive.
             let pdf = sphere.pdf_area(position, normal);
             LightPoint::Area {
@@ -157,24 +186,37 @@ pub fn sample_light(light: &Light, object: BoundingSphere, u: [f64; 2]) -> Light
         } => {
             let area = edge_u.length() * edge_v.length();
             let by_area = |s: f64, t: f64| corner + s * edge_u + t * edge_v;
-            let seen = ((object.center - corner).dot(normal) > 0.0)
-                .then(|| SphericalRectangle::new(object.center, corner, edge_u, edge_v))
-                .flatten();
-            let (position, pdf) = match seen {
-                Some(rect) => {
-                    let position = if u[0] < SOLID_ANGLE_SHARE {
-                        rect.sample([u[0] / SOLID_ANGLE_SHARE, u[1]])
-                    } else {
-                        by_area((u[0] - SOLID_ANGLE_SHARE) / (1.0 - SOLID_ANGLE_SHARE), u[1])
-                    };
-                    // By solid angle from the centre: `cos_y / (Ω r²)` per unit area.
-                    let to = object.center - position;
-                    let d2 = to.length_squared();
-                    let by_angle = normal.dot(to).max(0.0) / (d2.sqrt() * d2 * rect.solid_angle());
-                    let pdf = SOLID_ANGLE_SHARE * by_angle + (1.0 - SOLID_ANGLE_SHARE) / area;
-                    (position, pdf)
-                }
-                None => (by_area(u[0], u[1]), 1.0 / area),
+            let rects = receivers.apexes.map(|apex| {
+                ((apex - corner).dot(normal) > 0.0)
+                    .then(|| SphericalRectangle::new(apex, corner, edge_u, edge_v))
+                    .flatten()
+            });
+            let seen = rects.iter().flatten().count();
+            let (position, pdf) = if seen == 0 {
+                (by_area(u[0], u[1]), 1.0 / area)
+            } else {
+                let position = if u[0] < SOLID_ANGLE_SHARE {
+                    let (k, u0) = pick(u[0] / SOLID_ANGLE_SHARE, seen);
+                    let rect = rects.iter().flatten().nth(k).expect("k < seen");
+                    rect.sample([u0, u[1]])
+                } else {
+                    by_area((u[0] - SOLID_ANGLE_SHARE) / (1.0 - SOLID_ANGLE_SHARE), u[1])
+                };
+                // By solid angle from an apex: `cos_y / (Ω r²)` per unit area.
+                let by_angle: f64 = receivers
+                    .apexes
+                    .iter()
+                    .zip(&rects)
+                    .filter_map(|(&apex, rect)| {
+                        let rect = rect.as_ref()?;
+                        let to = apex - position;
+                        let d2 = to.length_squared();
+                        Some(normal.dot(to).max(0.0) / (d2.sqrt() * d2 * rect.solid_angle()))
+                    })
+                    .sum();
+                let pdf =
+                    SOLID_ANGLE_SHARE * by_angle / seen as f64 + (1.0 - SOLID_ANGLE_SHARE) / area;
+                (position, pdf)
             };
             LightPoint::Area {
                 position,
@@ -185,14 +227,16 @@ pub fn sample_light(light: &Light, object: BoundingSphere, u: [f64; 2]) -> Light
     }
 }
 
-/// The two densities a sphere light's points are drawn from, and their mixture.
+/// The densities a sphere light's points are drawn from, and their mixture.
 #[derive(Debug, Clone, Copy)]
 struct SphereSampling {
     center: DVec3,
     radius: f64,
     cap: Cap,
-    /// `None` when the object's centre is inside the light.
-    solid_angle: Option<Cone>,
+    /// By solid angle from each apex; `None` for an apex inside the light.
+    cones: [Option<Cone>; APEXES],
+    /// How many of `cones` are `Some`.
+    cone_count: usize,
 }
 
 /// Uniform by area on the cap `n·axis ≥ 1 − one_minus_cos` of the light (the part visible from
@@ -216,7 +260,8 @@ struct Cone {
 }
 
 impl SphereSampling {
-    fn new(center: DVec3, radius: f64, object: BoundingSphere) -> SphereSampling {
+    fn new(center: DVec3, radius: f64, receivers: Receivers) -> SphereSampling {
+        let object = receivers.object;
         // The cap of the light seen from the object's bounding sphere, as (axis, 1 − cos γ).
         let to_object = object.center - center;
         let d = to_object.length();
@@ -237,30 +282,40 @@ impl SphereSampling {
                 one_minus_cos: 2.0,
             },
         };
-        let solid_angle = (d > radius).then(|| {
-            let sin2 = (radius / d).powi(2);
-            Cone {
-                apex: object.center,
-                axis: -to_object / d,
-                distance: d,
-                one_minus_cos: sin2 / (1.0 + (1.0 - sin2).max(0.0).sqrt()),
-            }
-        });
+        let cones = receivers
+            .apexes
+            .map(|apex| Cone::toward(apex, center, radius));
         SphereSampling {
             center,
             radius,
             cap,
-            solid_angle,
+            cones,
+            cone_count: cones.iter().flatten().count(),
         }
+    }
+
+    /// A point of the mixture and its outward normal.
+    fn sample(&self, u: [f64; 2]) -> (DVec3, DVec3) {
+        if self.cone_count == 0 {
+            return self.cap.sample(self.center, self.radius, u);
+        }
+        if u[0] >= SOLID_ANGLE_SHARE {
+            let u0 = (u[0] - SOLID_ANGLE_SHARE) / (1.0 - SOLID_ANGLE_SHARE);
+            return self.cap.sample(self.center, self.radius, [u0, u[1]]);
+        }
+        let (k, u0) = pick(u[0] / SOLID_ANGLE_SHARE, self.cone_count);
+        let cone = self.cones.iter().flatten().nth(k).expect("k < cone_count");
+        cone.sample(self.center, self.radius, [u0, u[1]])
     }
 
     /// The density by area of the mixture at the light point `y` with outward normal `n`.
     fn pdf_area(&self, y: DVec3, n: DVec3) -> f64 {
         let cap = self.cap.pdf_area(self.radius, n);
-        match self.solid_angle {
-            Some(cone) => SOLID_ANGLE_SHARE * cone.pdf_area(y, n) + (1.0 - SOLID_ANGLE_SHARE) * cap,
-            None => cap,
+        if self.cone_count == 0 {
+            return cap;
         }
+        let cones: f64 = self.cones.iter().flatten().map(|c| c.pdf_area(y, n)).sum();
+        SOLID_ANGLE_SHARE * cones / self.cone_count as f64 + (1.0 - SOLID_ANGLE_SHARE) * cap
     }
 }
 
@@ -285,6 +340,22 @@ impl Cap {
 }
 
 impl Cone {
+    /// The cone a sphere light of `radius` about `center` subtends from `apex`; `None` when the
+    /// apex is inside the light.
+    fn toward(apex: DVec3, center: DVec3, radius: f64) -> Option<Cone> {
+        let to_light = center - apex;
+        let d = to_light.length();
+        (d > radius).then(|| {
+            let sin2 = (radius / d).powi(2);
+            Cone {
+                apex,
+                axis: to_light / d,
+                distance: d,
+                one_minus_cos: sin2 / (1.0 + (1.0 - sin2).max(0.0).sqrt()),
+            }
+        })
+    }
+
     fn sample(&self, center: DVec3, radius: f64, u: [f64; 2]) -> (DVec3, DVec3) {
         let one_minus_cos = u[0] * self.one_minus_cos;
         let dir = around(self.axis, one_minus_cos, u[1]);
@@ -309,6 +380,14 @@ impl Cone {
             0.0
         }
     }
+}
+
+/// Which of `count` (≥ 1) equal shares of `[0, 1)` holds `u`, and `u` rescaled to `[0, 1)`
+/// within it.
+fn pick(u: f64, count: usize) -> (usize, f64) {
+    let scaled = u * count as f64;
+    let k = (scaled as usize).min(count - 1);
+    (k, (scaled - k as f64).min(1.0 - f64::EPSILON / 2.0))
 }
 
 /// The unit vector at `1 − cos θ = one_minus_cos` from `axis`, at azimuth `2π·u`.

@@ -31,7 +31,7 @@ use crate::Rgb;
 use crate::sampler::Sampler;
 use crate::scene::{Material, Scene};
 use crate::segment::Segment;
-use light_sample::sample_light;
+use light_sample::{Receivers, sample_light};
 use methods::connect::Connection;
 pub use plan::describe_plan;
 use plan::{Model, object_bounds, plan_for};
@@ -63,8 +63,9 @@ pub fn single_scatter(
     let settings = &scene.integrator().single_scatter;
     let mut stack = DescentStack::default();
     let mut total = Rgb::ZERO;
+    let receivers = Receivers::of_segment(bounds, segment.origin, segment.dir, segment.length);
     for (j, light) in scene.lights().iter().enumerate() {
-        let light = sample_light(light, bounds, sampler.next_2d());
+        let light = sample_light(light, receivers, sampler.next_2d());
         let light_medium = scene.light_medium(j);
         // A light in another medium would reach this one through two interfaces: not modelled
         // (the plan says so for every such light and object).

@@ -3,12 +3,17 @@ use super::*;
 /// The fluence rate at `p` estimated from the light points of a stratified 400×400 grid of
 /// samples: `mean(I_eff(p) / ‖y − p‖²)`.
 fn fluence_estimate(light: &Light, object: BoundingSphere, p: DVec3) -> Rgb {
+    fluence_estimate_from(light, Receivers::about_centre(object), p)
+}
+
+/// The same with the light sampled for `receivers`.
+fn fluence_estimate_from(light: &Light, receivers: Receivers, p: DVec3) -> Rgb {
     let n = 400;
     let mut sum = Rgb::ZERO;
     for i in 0..n {
         for j in 0..n {
             let u = [(i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64];
-            let point = sample_light(light, object, u);
+            let point = sample_light(light, receivers, u);
             sum += point.intensity_toward(p) / point.position().distance_squared(p);
         }
     }
@@ -51,6 +56,116 @@ fn sphere_light_points_estimate_the_fluence() {
             assert!(
                 err < 1e-3,
                 "light {light_center} p {p}: {estimate} vs {truth} ({err})"
+            );
+        }
+    }
+}
+
+/// Sampled for a camera segment (by solid angle from its ends and middle), the light points
+/// still estimate the fluence anywhere in the object, on the segment or not: segments through
+/// the object's middle, along its edge, and one that ends inside the light.
+#[test]
+fn sphere_light_points_for_a_segment_estimate_the_fluence_anywhere() {
+    let radiance = DVec3::new(1.0, 2.0, 0.5);
+    let object = BoundingSphere {
+        center: DVec3::ZERO,
+        radius: 1.0,
+    };
+    for (light_center, light_radius) in [
+        (DVec3::new(0.0, 1.2, -3.8), 0.1),
+        (DVec3::new(0.0, 1.2, -3.8), 0.5),
+        (DVec3::new(0.0, 1.9, 0.0), 0.5),
+    ] {
+        let light = Light::Sphere {
+            center: light_center,
+            radius: light_radius,
+            radiance,
+        };
+        for (origin, end) in [
+            (DVec3::new(0.0, 0.0, 1.0), DVec3::new(0.0, 0.0, -1.0)),
+            (DVec3::new(0.6, 0.7, 0.3), DVec3::new(-0.7, 0.6, -0.2)),
+            (DVec3::new(0.0, 0.2, 0.0), DVec3::new(0.0, 1.6, 0.0)),
+        ] {
+            let dir = (end - origin).normalize();
+            let receivers = Receivers::of_segment(object, origin, dir, origin.distance(end));
+            for p in [
+                DVec3::ZERO,
+                DVec3::new(0.0, 0.0, -0.99),
+                DVec3::new(0.0, 0.99, 0.0),
+                DVec3::new(-0.7, -0.5, 0.4),
+                0.5 * (origin + end),
+            ] {
+                let d = light_center.distance(p);
+                if d <= light_radius {
+                    continue;
+                }
+                let estimate = fluence_estimate_from(&light, receivers, p);
+                let cos_alpha = (1.0 - (light_radius / d).powi(2)).sqrt();
+                let truth = radiance * std::f64::consts::TAU * (1.0 - cos_alpha);
+                let err = ((estimate - truth) / truth).abs().max_element();
+                assert!(
+                    err < 1e-3,
+                    "light {light_center} r {light_radius}, segment {origin}..{end}, p {p}: \
+                     {estimate} vs {truth} ({err})"
+                );
+            }
+        }
+    }
+}
+
+/// The same for a quad light sampled for a segment: the fluence anywhere in the object, in front
+/// of the quad or behind it, with apexes in front of it, behind it, or some of each.
+#[test]
+fn quad_light_points_for_a_segment_estimate_the_fluence_anywhere() {
+    let radiance = DVec3::new(1.0, 2.0, 0.5);
+    let object = BoundingSphere {
+        center: DVec3::ZERO,
+        radius: 1.0,
+    };
+    let (corner, edge_u, edge_v) = (
+        DVec3::new(-1.0, 0.4, -1.0),
+        DVec3::new(0.0, 0.0, 2.0),
+        DVec3::new(2.0, 0.0, 0.0),
+    );
+    let light = Light::new(
+        &spindle_common::scene::Light::Quad {
+            corner: corner.to_array(),
+            edge_u: edge_u.to_array(),
+            edge_v: edge_v.to_array(),
+            radiance: radiance.to_array(),
+        },
+        crate::light::SceneSphere {
+            center: DVec3::ZERO,
+            radius: 1.0,
+        },
+    )
+    .unwrap();
+    let normal = edge_u.cross(edge_v).normalize();
+    for (origin, end) in [
+        (DVec3::new(0.0, -0.9, 0.3), DVec3::new(0.2, 0.3, -0.3)),
+        (DVec3::new(0.0, 0.9, 0.3), DVec3::new(0.2, 0.6, -0.3)),
+        (DVec3::new(-0.6, -0.7, 0.0), DVec3::new(0.7, 0.6, 0.1)),
+    ] {
+        let dir = (end - origin).normalize();
+        let receivers = Receivers::of_segment(object, origin, dir, origin.distance(end));
+        for p in [
+            DVec3::ZERO,
+            DVec3::new(0.0, -0.99, 0.0),
+            DVec3::new(0.3, 0.35, 0.1),
+            DVec3::new(-0.7, -0.5, 0.4),
+            DVec3::new(0.1, 0.8, 0.0),
+        ] {
+            let estimate = fluence_estimate_from(&light, receivers, p);
+            let omega = crate::light::rectangle::tests::quad_solid_angle(p, corner, edge_u, edge_v);
+            let truth = if (p - corner).dot(normal) > 0.0 {
+                radiance * omega
+            } else {
+                Rgb::ZERO
+            };
+            let err = ((estimate - truth).abs() / radiance).max_element() / omega;
+            assert!(
+                err < 2e-3,
+                "segment {origin}..{end}, p {p}: {estimate} vs {truth} ({err})"
             );
         }
     }
@@ -145,7 +260,7 @@ fn quad_light_weights_are_bounded_by_the_area_share() {
     for _ in 0..20_000 {
         let LightPoint::Area {
             radiance_over_pdf, ..
-        } = sample_light(&light, object, sampler.next_2d())
+        } = sample_light(&light, Receivers::about_centre(object), sampler.next_2d())
         else {
             panic!("a quad light gives area points");
         };
@@ -164,7 +279,7 @@ fn point_lights_are_used_as_they_are() {
         center: DVec3::ZERO,
         radius: 1.0,
     };
-    let point = sample_light(&light, object, [0.3, 0.7]);
+    let point = sample_light(&light, Receivers::about_centre(object), [0.3, 0.7]);
     assert_eq!(point.position(), DVec3::new(1.0, 2.0, 3.0));
     assert_eq!(point.intensity_toward(DVec3::X), DVec3::splat(4.0));
 }
@@ -176,7 +291,7 @@ fn fluence_spread(light: &Light, object: BoundingSphere, p: DVec3) -> f64 {
     for i in 0..n {
         for j in 0..n {
             let u = [(i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64];
-            let point = sample_light(light, object, u);
+            let point = sample_light(light, Receivers::about_centre(object), u);
             let e = point.intensity_toward(p).x / point.position().distance_squared(p);
             sum += e;
             sum2 += e * e;
@@ -247,7 +362,7 @@ fn sphere_light_weights_are_bounded_by_the_cap_share() {
                 let u = [(i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64];
                 let LightPoint::Area {
                     radiance_over_pdf, ..
-                } = sample_light(&light, object, u)
+                } = sample_light(&light, Receivers::about_centre(object), u)
                 else {
                     panic!("a sphere light gives area points");
                 };
