@@ -20,6 +20,48 @@ fn fluence_estimate_from(light: &Light, receivers: Receivers, p: DVec3) -> Rgb {
     sum / (n * n) as f64
 }
 
+/// The closed-form fluence rate at `p` of a sphere light (see below), `None` inside it.
+fn sphere_fluence(center: DVec3, radius: f64, radiance: Rgb, p: DVec3) -> Option<Rgb> {
+    let d = center.distance(p);
+    let cos_alpha = (1.0 - (radius / d).powi(2)).sqrt();
+    (d > radius).then(|| radiance * std::f64::consts::TAU * (1.0 - cos_alpha))
+}
+
+/// A quad light of the scene description's fields around the unit sphere at the origin.
+fn quad_light(corner: DVec3, edge_u: DVec3, edge_v: DVec3, radiance: Rgb) -> Light {
+    Light::new(
+        &spindle_common::scene::Light::Quad {
+            corner: corner.to_array(),
+            edge_u: edge_u.to_array(),
+            edge_v: edge_v.to_array(),
+            radiance: radiance.to_array(),
+        },
+        crate::light::SceneSphere {
+            center: DVec3::ZERO,
+            radius: 1.0,
+        },
+    )
+    .unwrap()
+}
+
+/// The estimate's error at `p` relative to a quad light's fluence there, `L_e · Ω(p)` in front
+/// of it (Ω the solid angle of the rectangle, in closed form) and 0 behind, in units of `L_e · Ω`.
+fn quad_fluence_error(
+    estimate: Rgb,
+    (corner, edge_u, edge_v): (DVec3, DVec3, DVec3),
+    radiance: Rgb,
+    p: DVec3,
+) -> f64 {
+    let omega = crate::light::rectangle::tests::quad_solid_angle(p, corner, edge_u, edge_v);
+    let in_front = (p - corner).dot(edge_u.cross(edge_v)) > 0.0;
+    let truth = if in_front {
+        radiance * omega
+    } else {
+        Rgb::ZERO
+    };
+    ((estimate - truth).abs() / radiance).max_element() / omega
+}
+
 /// Ground truth: the fluence rate (scalar irradiance) at a point `p` at distance `d` from the
 /// centre of a sphere of uniform radiance `L_e` and radius `R` is `∫ L dω = L_e · 2π(1 − cos α)`
 /// with `sin α = R/d`. The estimator of it from light points is
@@ -49,9 +91,7 @@ fn sphere_light_points_estimate_the_fluence() {
             DVec3::new(-object_radius * 0.7, 0.5 * object_radius, 0.0),
         ] {
             let estimate = fluence_estimate(&light, object, p);
-            let d = light_center.distance(p);
-            let cos_alpha = (1.0 - (light_radius / d).powi(2)).sqrt();
-            let truth = radiance * std::f64::consts::TAU * (1.0 - cos_alpha);
+            let truth = sphere_fluence(light_center, light_radius, radiance, p).unwrap();
             let err = ((estimate - truth) / truth).abs().max_element();
             assert!(
                 err < 1e-3,
@@ -95,13 +135,10 @@ fn sphere_light_points_for_a_segment_estimate_the_fluence_anywhere() {
                 DVec3::new(-0.7, -0.5, 0.4),
                 0.5 * (origin + end),
             ] {
-                let d = light_center.distance(p);
-                if d <= light_radius {
+                let Some(truth) = sphere_fluence(light_center, light_radius, radiance, p) else {
                     continue;
-                }
+                };
                 let estimate = fluence_estimate_from(&light, receivers, p);
-                let cos_alpha = (1.0 - (light_radius / d).powi(2)).sqrt();
-                let truth = radiance * std::f64::consts::TAU * (1.0 - cos_alpha);
                 let err = ((estimate - truth) / truth).abs().max_element();
                 assert!(
                     err < 1e-3,
@@ -127,20 +164,7 @@ fn quad_light_points_for_a_segment_estimate_the_fluence_anywhere() {
         DVec3::new(0.0, 0.0, 2.0),
         DVec3::new(2.0, 0.0, 0.0),
     );
-    let light = Light::new(
-        &spindle_common::scene::Light::Quad {
-            corner: corner.to_array(),
-            edge_u: edge_u.to_array(),
-            edge_v: edge_v.to_array(),
-            radiance: radiance.to_array(),
-        },
-        crate::light::SceneSphere {
-            center: DVec3::ZERO,
-            radius: 1.0,
-        },
-    )
-    .unwrap();
-    let normal = edge_u.cross(edge_v).normalize();
+    let light = quad_light(corner, edge_u, edge_v, radiance);
     for (origin, end) in [
         (DVec3::new(0.0, -0.9, 0.3), DVec3::new(0.2, 0.3, -0.3)),
         (DVec3::new(0.0, 0.9, 0.3), DVec3::new(0.2, 0.6, -0.3)),
@@ -156,16 +180,10 @@ fn quad_light_points_for_a_segment_estimate_the_fluence_anywhere() {
             DVec3::new(0.1, 0.8, 0.0),
         ] {
             let estimate = fluence_estimate_from(&light, receivers, p);
-            let omega = crate::light::rectangle::tests::quad_solid_angle(p, corner, edge_u, edge_v);
-            let truth = if (p - corner).dot(normal) > 0.0 {
-                radiance * omega
-            } else {
-                Rgb::ZERO
-            };
-            let err = ((estimate - truth).abs() / radiance).max_element() / omega;
+            let err = quad_fluence_error(estimate, (corner, edge_u, edge_v), radiance, p);
             assert!(
                 err < 2e-3,
-                "segment {origin}..{end}, p {p}: {estimate} vs {truth} ({err})"
+                "segment {origin}..{end}, p {p}: {estimate} ({err})"
             );
         }
     }
@@ -198,20 +216,7 @@ fn quad_light_points_estimate_the_fluence() {
             DVec3::new(0.0, 0.0, 4.0),
         ),
     ] {
-        let light = Light::new(
-            &spindle_common::scene::Light::Quad {
-                corner: corner.to_array(),
-                edge_u: edge_u.to_array(),
-                edge_v: edge_v.to_array(),
-                radiance: radiance.to_array(),
-            },
-            crate::light::SceneSphere {
-                center: DVec3::ZERO,
-                radius: 1.0,
-            },
-        )
-        .unwrap();
-        let normal = edge_u.cross(edge_v).normalize();
+        let light = quad_light(corner, edge_u, edge_v, radiance);
         for p in [
             DVec3::ZERO,
             DVec3::new(0.0, 0.0, -0.99),
@@ -219,18 +224,8 @@ fn quad_light_points_estimate_the_fluence() {
             DVec3::new(-0.7, -0.5, 0.0),
         ] {
             let estimate = fluence_estimate(&light, object, p);
-            let in_front = (p - corner).dot(normal) > 0.0;
-            let omega = crate::light::rectangle::tests::quad_solid_angle(p, corner, edge_u, edge_v);
-            let truth = if in_front {
-                radiance * omega
-            } else {
-                Rgb::ZERO
-            };
-            let err = ((estimate - truth).abs() / radiance).max_element() / omega;
-            assert!(
-                err < 2e-3,
-                "quad at {corner}, p {p}: {estimate} vs {truth} ({err})"
-            );
+            let err = quad_fluence_error(estimate, (corner, edge_u, edge_v), radiance, p);
+            assert!(err < 2e-3, "quad at {corner}, p {p}: {estimate} ({err})");
         }
     }
 }
