@@ -241,12 +241,21 @@ async fn an_end_of_pass_that_keeps_failing_fails_the_job_with_the_reason() {
     }
 }
 
-/// The budget counts the time a job can run: paused for longer than its whole budget (and the
-/// coordinator restarted meanwhile), the job still runs its next pass once resumed.
+/// Pauses or resumes job `id` (`action`: "pause" or "resume").
+async fn control(c: &Coordinator, id: u64, action: &str) {
+    let (status, info) = c
+        .client(Method::POST, &format!("/v1/jobs/{id}/{action}"), None)
+        .await;
+    assert_eq!(status, StatusCode::OK, "{action}: {info}");
+}
+
+/// The budget counts the time a job can run: paused for longer than its whole budget, the job
+/// still runs its next pass; and so it does when the coordinator restarts during the pause.
 #[tokio::test]
 async fn time_spent_paused_is_not_spent_from_the_budget() {
     let dir = tempfile::tempdir().unwrap();
     let budget_s = 1.5;
+    let pause = Duration::from_secs_f64(budget_s + 0.5);
     let (job, w, leases) = {
         let c = Coordinator::open(cfg(dir.path())).await;
         let job = c.submit(budgeted(16, budget_s)).await;
@@ -256,37 +265,41 @@ async fn time_spent_paused_is_not_spent_from_the_budget() {
             pass_of(&wait_pass(&c, job.id, 2).await).map(|p| p.pass),
             Some(2)
         );
+        // Paused mid pass 2 for longer than the budget; its tiles come in during the pause,
+        // so the pass ends while the job is paused.
         let leases = lease_all(&c, w).await;
-        let (status, info) = c
-            .client(Method::POST, &format!("/v1/jobs/{}/pause", job.id), None)
-            .await;
-        assert_eq!(status, StatusCode::OK, "{info}");
+        control(&c, job.id, "pause").await;
+        tokio::time::sleep(pause).await;
+        upload_all(&c, job.id, w, &leases).await;
+        let info = wait_until(&c, job.id, |j| {
+            j.state.is_finished() || j.passes.is_some_and(|p| p.pass == 3)
+        })
+        .await;
+        assert_eq!(
+            (info.state, pass_of(&info).map(|p| p.pass)),
+            (JobState::Paused, Some(3)),
+            "{pause:?} paused of a {budget_s} s budget still leaves time for pass 3: {info:?}"
+        );
+        control(&c, job.id, "resume").await;
+        // Paused again mid pass 3, and the coordinator stopped during the pause.
+        let leases = lease_all(&c, w).await;
+        control(&c, job.id, "pause").await;
         (job, w, leases)
     };
-    tokio::time::sleep(Duration::from_secs_f64(budget_s + 0.5)).await;
-    let mut cfg = cfg(dir.path());
-    cfg.restart_grace = Duration::from_secs(60);
-    let c = Coordinator::open(cfg).await;
+    tokio::time::sleep(pause).await;
+    let mut config = cfg(dir.path());
+    config.restart_grace = Duration::from_secs(60);
+    let c = Coordinator::open(config).await;
     assert_eq!(c.job(job.id).await.state, JobState::Paused);
-    // Pass 2's tiles come in while the job is paused; its end sees the pause too.
+    control(&c, job.id, "resume").await;
     upload_all(&c, job.id, w, &leases).await;
-    let info = wait_until(&c, job.id, |j| {
-        j.state.is_finished() || j.passes.is_some_and(|p| p.pass == 3)
-    })
-    .await;
+    let info = wait_pass(&c, job.id, 4).await;
     assert_eq!(
-        (info.state, pass_of(&info).map(|p| p.pass)),
-        (JobState::Paused, Some(3)),
-        "2 s paused of a {budget_s} s budget still leaves time for pass 3: {info:?}"
+        pass_of(&info).map(|p| p.pass),
+        Some(4),
+        "the pause is kept across the restart: {info:?}"
     );
-    let (status, info) = c
-        .client(Method::POST, &format!("/v1/jobs/{}/resume", job.id), None)
-        .await;
-    assert_eq!(status, StatusCode::OK, "{info}");
-    for pass in 3..=4 {
-        upload_all(&c, job.id, w, &lease_all(&c, w).await).await;
-        wait_pass(&c, job.id, pass + 1).await;
-    }
+    upload_all(&c, job.id, w, &lease_all(&c, w).await).await;
     let done = c.wait_finished(job.id).await;
     assert_eq!(done.state, JobState::Done, "{:?}", done.error);
     assert_eq!(pass_of(&done).map(|p| (p.pass, p.spp)), Some((4, 64)));
