@@ -12,8 +12,10 @@
 //!
 //! Assembly never fails a job whose tiles are all in: a stored tile found damaged (missing,
 //! truncated, altered) goes back to the queue to be rendered again, and any other error (I/O,
-//! a full disk) is retried with backoff until it passes; a restarted coordinator resumes. Only
-//! [`finish`] is async; the rest blocks and runs under `spawn_blocking`.
+//! a full disk) is retried with backoff until it passes; a restarted coordinator resumes. A
+//! budgeted job's tiles are all in at the end of each of its passes: [`finish`] first ends the
+//! pass (the same backoff, a bounded number of times: [`crate::passes`]), and assembles only
+//! after the last. Only [`finish`] is async; the rest blocks and runs under `spawn_blocking`.
 
 use std::time::Duration;
 
@@ -23,6 +25,8 @@ use spindle_common::provenance::Provenance;
 use spindle_common::stats::RenderStats;
 
 use crate::AppState;
+use crate::error::Error;
+use crate::passes::{PASS_END_ATTEMPTS, PassEnd};
 use crate::tile_store::{ReadError, TileStore};
 
 /// First and longest pause before assembly is tried again after an error that may pass.
@@ -146,10 +150,52 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
         .collect()
 }
 
+/// Ends the pass of budgeted job `id`, whose tiles are all in
+/// ([`crate::jobs::Ledger::end_of_pass`]), retrying an error with backoff; after
+/// [`PASS_END_ATTEMPTS`] failed, fails the job with the reason. Returns whether the job is
+/// complete and may be assembled.
+async fn end_pass(state: &AppState, id: u64) -> bool {
+    let mut delay = RETRY_FIRST;
+    let mut attempt = 0;
+    loop {
+        attempt += 1;
+        let ended = state.with_ledger(move |l| l.end_of_pass(id)).await;
+        let error = match ended {
+            Ok(PassEnd::Complete) => return true,
+            Ok(PassEnd::NextPass) => {
+                state.work_available();
+                return false;
+            }
+            Ok(PassEnd::Ended) | Err(Error::NotFound(_)) => return false,
+            Err(e) => e,
+        };
+        tracing::error!(job = id, error = %error, attempt, retry_in = ?delay, "ending the pass failed");
+        if attempt >= PASS_END_ATTEMPTS {
+            let failed = state
+                .with_ledger(move |l| l.fail_pass_end(id, &error))
+                .await;
+            match failed {
+                Ok(()) => return false,
+                // Not even the failure could be recorded: keep trying, as assembly does.
+                Err(e) => tracing::error!(job = id, error = %e, "failing the job failed"),
+            }
+        }
+        tokio::select! {
+            _ = tokio::time::sleep(delay) => {}
+            _ = state.shutdown_signal() => return false,
+        }
+        delay = (delay * 2).min(RETRY_MAX);
+    }
+}
+
 /// Writes the final image of job `id`, whose tiles are all in, and records the job done;
 /// damaged tiles go back to the queue instead, and other errors are retried with backoff. Ends
-/// early when the job is deleted or stops meanwhile.
+/// early when the job is deleted or stops meanwhile. A budgeted job's pass is ended first
+/// ([`end_pass`]): the job is assembled only after its last.
 pub(crate) async fn finish(state: AppState, id: u64) {
+    if !end_pass(&state, id).await {
+        return;
+    }
     let mut delay = RETRY_FIRST;
     loop {
         let prepared = state
@@ -224,7 +270,7 @@ pub(crate) async fn finish(state: AppState, id: u64) {
     }
 }
 
-/// A PNG preview of the tiles received so far (black where none arrived yet).
+/// A PNG preview of the given tile results (black where none arrived yet).
 pub fn preview_png(
     store: &TileStore,
     job: u64,

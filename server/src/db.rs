@@ -104,6 +104,15 @@ const MIGRATIONS: &[&str] = &[
     // pixels and the worker's report); NULL for tiles done before this column (their results
     // were files): such a tile reads as missing at assembly and is rendered again.
     "ALTER TABLE tiles ADD COLUMN upload BLOB;",
+    // A budgeted job's passes (`passes::PassClock` as JSON: its pass, when it began, the time
+    // spent paused, whether the last pass ended), written at submission and at every change;
+    // NULL for a job without a budget, or stored before this column. And per done tile of such
+    // a job, its pixels that would take more samples in another pass. A tile row not done
+    // keeps the previous pass's result (`hash`, `upload`) until its current pass replaces it.
+    r#"
+    ALTER TABLE jobs ADD COLUMN passes TEXT;
+    ALTER TABLE tiles ADD COLUMN sampling INTEGER;
+"#,
 ];
 
 /// Opens (creating if needed) the database at `path` and brings its schema up to date.
@@ -160,6 +169,8 @@ pub struct JobRow {
     pub image_sha256: Option<String>,
     /// The job's provenance as JSON, once a tile brought one.
     pub provenance_json: Option<String>,
+    /// A budgeted job's passes as JSON (`passes::PassClock`).
+    pub passes_json: Option<String>,
 }
 
 /// A tile row as stored.
@@ -198,8 +209,8 @@ pub struct FailureRow {
 pub fn insert_job(conn: &Connection, row: &JobRow) -> rusqlite::Result<u64> {
     conn.execute(
         "INSERT INTO jobs (spec, priority, state, error, idempotency_key, request_hash, created_ms,
-                           requires, name, submitter)
-         VALUES (?1, ?2, ?3, NULL, ?4, ?5, ?6, ?7, ?8, ?9)",
+                           requires, name, submitter, passes)
+         VALUES (?1, ?2, ?3, NULL, ?4, ?5, ?6, ?7, ?8, ?9, ?10)",
         params![
             row.spec_json,
             row.priority,
@@ -209,7 +220,8 @@ pub fn insert_job(conn: &Connection, row: &JobRow) -> rusqlite::Result<u64> {
             row.created_ms,
             row.requires_json,
             row.name,
-            row.submitter
+            row.submitter,
+            row.passes_json
         ],
     )?;
     Ok(conn.last_insert_rowid() as u64)
@@ -220,7 +232,7 @@ pub fn load_jobs(conn: &Connection) -> anyhow::Result<Vec<JobRow>> {
     let mut stmt = conn.prepare(
         "SELECT id, spec, priority, state, error, idempotency_key, request_hash, created_ms,
                 started_ms, finished_ms, requires, name, submitter, tiles_done, stats,
-                image_sha256, provenance
+                image_sha256, provenance, passes
          FROM jobs ORDER BY id",
     )?;
     let rows = stmt.query_map([], |r| {
@@ -242,6 +254,7 @@ pub fn load_jobs(conn: &Connection) -> anyhow::Result<Vec<JobRow>> {
                 totals: None,
                 image_sha256: r.get(15)?,
                 provenance_json: r.get(16)?,
+                passes_json: r.get(17)?,
             },
             r.get::<_, String>(3)?,
             r.get::<_, Option<u32>>(13)?,
@@ -569,7 +582,7 @@ pub fn record_lease(
 }
 
 /// Records a finished tile: its upload (`stored`: `upload` in the compact tile form),
-/// statistics and noise sums.
+/// statistics and noise sums, and for a pass of a budgeted job its pixels still sampling.
 pub fn record_done(
     tx: &Transaction<'_>,
     job: u64,
@@ -577,14 +590,15 @@ pub fn record_done(
     upload: &TileUpload,
     noise: &NoiseSums,
     stored: &[u8],
+    sampling: Option<u32>,
 ) -> anyhow::Result<()> {
     tx.prepare_cached(
         "INSERT INTO tiles (job_id, tile_index, state, epoch, worker_id, hash, stats,
-                            render_seconds, noise, upload)
-         VALUES (?1, ?2, 'done', ?3, ?4, ?5, ?6, ?7, ?8, ?9)
+                            render_seconds, noise, upload, sampling)
+         VALUES (?1, ?2, 'done', ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)
          ON CONFLICT (job_id, tile_index) DO UPDATE
            SET state = 'done', epoch = ?3, worker_id = ?4, hash = ?5, stats = ?6,
-               render_seconds = ?7, noise = ?8, upload = ?9",
+               render_seconds = ?7, noise = ?8, upload = ?9, sampling = ?10",
     )?
     .execute(params![
         job as i64,
@@ -595,7 +609,8 @@ pub fn record_done(
         serde_json::to_string(&upload.pixels.stats)?,
         upload.render_seconds,
         serde_json::to_string(noise)?,
-        stored
+        stored,
+        sampling
     ])?;
     Ok(())
 }
@@ -690,11 +705,48 @@ pub fn requeue_tile(tx: &Transaction<'_>, job: u64, index: u32) -> rusqlite::Res
 /// its result (`hash`, `upload`): the next pass continues from it, and replaces it when done.
 pub fn next_pass_tile(tx: &Transaction<'_>, job: u64, index: u32) -> rusqlite::Result<()> {
     tx.execute(
-        "UPDATE tiles SET state = 'pending', stats = NULL, render_seconds = NULL, noise = NULL
+        "UPDATE tiles SET state = 'pending', stats = NULL, render_seconds = NULL, noise = NULL,
+                         sampling = NULL
          WHERE job_id = ?1 AND tile_index = ?2",
         params![job as i64, index],
     )?;
     Ok(())
+}
+
+/// Records a budgeted job's passes (`passes::PassClock` as JSON).
+pub fn set_passes(conn: &Connection, job: u64, json: &str) -> rusqlite::Result<()> {
+    conn.execute(
+        "UPDATE jobs SET passes = ?2 WHERE id = ?1",
+        params![job as i64, json],
+    )?;
+    Ok(())
+}
+
+/// What a budgeted job's tile rows say about its current pass: per tile not done, the result
+/// its pass continues from (the previous pass's, kept by [`next_pass_tile`]); per done tile,
+/// its pixels still sampling. As `(index, previous hash, sampling)`, in index order.
+pub type PassRow = (u32, Option<String>, Option<u32>);
+
+/// The [`PassRow`]s of a job's stored tiles.
+pub fn pass_rows(conn: &Connection, job: u64) -> rusqlite::Result<Vec<PassRow>> {
+    let mut stmt = conn.prepare(
+        "SELECT tile_index, CASE WHEN state = 'done' THEN NULL ELSE hash END,
+                CASE WHEN state = 'done' THEN sampling ELSE NULL END
+         FROM tiles WHERE job_id = ?1 ORDER BY tile_index",
+    )?;
+    let rows = stmt.query_map([job as i64], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))?;
+    rows.collect()
+}
+
+/// The latest result of each tile of a job that has one, `(index, hash)` in index order: a
+/// done tile's, or the previous pass's of a budgeted job's tile whose current pass is not in.
+pub fn latest_results(conn: &Connection, job: u64) -> rusqlite::Result<Vec<(u32, String)>> {
+    let mut stmt = conn.prepare(
+        "SELECT tile_index, hash FROM tiles WHERE job_id = ?1 AND hash IS NOT NULL
+         ORDER BY tile_index",
+    )?;
+    let rows = stmt.query_map([job as i64], |r| Ok((r.get(0)?, r.get(1)?)))?;
+    rows.collect()
 }
 
 /// Forgets a worker (lost long ago); failures it reported keep its id, without a name.
@@ -735,6 +787,7 @@ mod tests {
             totals: None,
             image_sha256: None,
             provenance_json: None,
+            passes_json: None,
         };
         let id = insert_job(&conn, &row).unwrap();
         record_lease(&conn, id, 7, 1, 42).unwrap();
@@ -762,7 +815,16 @@ mod tests {
             render_seconds: Some(0.25),
             provenance: None,
         };
-        record_done(&tx, id, 7, &upload, &NoiseSums::default(), b"stored upload").unwrap();
+        record_done(
+            &tx,
+            id,
+            7,
+            &upload,
+            &NoiseSums::default(),
+            b"stored upload",
+            None,
+        )
+        .unwrap();
         tx.commit().unwrap();
         assert_eq!(
             tile_upload(&conn, id, 7).unwrap().as_deref(),

@@ -443,6 +443,9 @@ impl Ledger {
                 job.provenance = Some(Arc::new(provenance));
             }
             if job.state.is_finished() {
+                if let Some(json) = &row.passes_json {
+                    job.restore_passes(json, &[])?;
+                }
                 job.release_tiles();
                 let (done, stats) = match row.totals {
                     Some(totals) => totals,
@@ -462,7 +465,14 @@ impl Ledger {
                     tx.commit()?;
                 }
             } else {
-                Ledger::restart_passes(&mut db, &job)?;
+                match &row.passes_json {
+                    Some(json) => {
+                        let rows = db::pass_rows(&db, row.id)?;
+                        job.restore_passes(json, &rows)?;
+                    }
+                    // Stored before its passes were: rendered again from pass 1.
+                    None => Ledger::restart_passes(&mut db, &job)?,
+                }
                 job.restore_tiles(&db, Some(now + grace))?;
             }
             let live = !job.state.is_finished();
@@ -580,6 +590,7 @@ impl Ledger {
             totals: None,
             image_sha256: None,
             provenance_json: None,
+            passes_json: Passes::json_of(&new.spec)?,
         };
         let id = db::insert_job(&self.db, &row)?;
         let mut job = Job::new(id, Arc::new(new.spec), new.priority, now);
@@ -677,15 +688,17 @@ impl Ledger {
             }
         }
         let (started, error) = (job.started_ms, job.error.clone());
-        db::set_job_state(
-            &self.db,
-            id,
-            JobState::Paused,
-            error.as_deref(),
-            started,
-            None,
-        )?;
-        self.job_mut(id)?.state = JobState::Paused;
+        // A budgeted job's clock stops (`passes::PassClock`).
+        let clock = job.clock_with(|c| c.pause(now_ms()))?;
+        let tx = self.db.transaction()?;
+        db::set_job_state(&tx, id, JobState::Paused, error.as_deref(), started, None)?;
+        if let Some((_, json)) = &clock {
+            db::set_passes(&tx, id, json)?;
+        }
+        tx.commit()?;
+        let job = self.job_mut(id)?;
+        job.state = JobState::Paused;
+        job.set_clock(clock);
         self.job_changed(id);
         tracing::info!(job = id, "job paused");
         self.info(id)
@@ -712,8 +725,16 @@ impl Ledger {
         } else {
             JobState::Queued
         };
-        db::set_job_state(&self.db, id, state, None, started, None)?;
-        self.job_mut(id)?.state = state;
+        let clock = job.clock_with(|c| c.resume(now_ms(), started))?;
+        let tx = self.db.transaction()?;
+        db::set_job_state(&tx, id, state, None, started, None)?;
+        if let Some((_, json)) = &clock {
+            db::set_passes(&tx, id, json)?;
+        }
+        tx.commit()?;
+        let job = self.job_mut(id)?;
+        job.state = state;
+        job.set_clock(clock);
         self.job_changed(id);
         tracing::info!(job = id, "job resumed");
         self.info(id)
@@ -1054,15 +1075,22 @@ impl Ledger {
         Ok(db::done_tiles(&self.db, id)?)
     }
 
+    /// The latest result of each tile of a job as `(index, hash)`, in index order: a finished
+    /// tile's, or for a budgeted job's tile whose current pass is not in, its previous pass's
+    /// (none once the job is done).
+    pub fn latest_results(&self, id: u64) -> Result<Vec<(u32, String)>, Error> {
+        self.job(id)?;
+        Ok(db::latest_results(&self.db, id)?)
+    }
+
     /// Jobs whose tiles are all in but whose image is not written yet (after a restart, or
     /// when the last tile arrives); marks them as assembling.
     pub fn take_jobs_to_assemble(&mut self) -> Vec<u64> {
         let mut ids = Vec::new();
         for job in self.jobs.values_mut() {
-            // A budgeted job's tiles are all in at the end of every pass; only after the last
-            // is it complete (`Ledger::end_of_pass`).
-            let last_pass = job.passes.as_ref().is_none_or(|p| p.complete);
-            if job.is_complete() && last_pass && !job.state.is_finished() && !job.assembling {
+            // A budgeted job's tiles are all in at the end of every pass: its assembly begins
+            // by ending the pass, which may queue the next (`Ledger::end_of_pass`).
+            if job.is_complete() && !job.state.is_finished() && !job.assembling {
                 job.assembling = true;
                 ids.push(job.id);
             }

@@ -35,7 +35,6 @@ use crate::error::Error;
 use crate::jobs::{
     JOB_FAILURE_LIMIT, Job, Ledger, TILE_FAILURE_LIMIT, TileStatus, WORKER_STRIKE_LIMIT, now_ms,
 };
-use crate::passes::PassEnd;
 use spindle_common::protocol::TileError;
 
 /// What to do with an upload that passed the checks.
@@ -254,7 +253,6 @@ impl Ledger {
             job.state = JobState::Running;
             job.started_ms = Some(start);
         }
-        job.passes_started(start.unwrap_or_else(now_ms));
         let tile = &mut job.tiles[index as usize];
         tile.epoch = epoch;
         tile.worker = Some(worker);
@@ -270,7 +268,7 @@ impl Ledger {
             rect: job.rects[index as usize],
             epoch,
             ttl_ms: ttl.as_millis() as u64,
-            pass: job.passes.as_ref().map(|p| p.pass),
+            pass: job.passes.as_ref().map(|p| p.pass()),
         };
         if start.is_some() {
             self.job_changed(id);
@@ -395,7 +393,8 @@ impl Ledger {
     }
 
     /// Records a tile and its pixels (`stored`: `upload.pixels` in the compact tile form) in
-    /// one commit. Returns the outcome and whether the job now has every tile.
+    /// one commit. Returns the outcome and whether the job now has every tile (of the pass,
+    /// for a budgeted job: [`crate::assemble::finish`] then ends the pass).
     pub fn record_upload(
         &mut self,
         id: u64,
@@ -413,8 +412,9 @@ impl Ledger {
             _ => None,
         };
         let noise = NoiseSums::of_tile(&upload.pixels);
+        let sampling = self.job(id)?.pass_sampling(upload);
         let tx = self.db.transaction()?;
-        db::record_done(&tx, id, index, upload, &noise, stored)?;
+        db::record_done(&tx, id, index, upload, &noise, stored, sampling)?;
         if let Some(p) = &provenance {
             db::set_provenance(
                 &tx,
@@ -440,7 +440,7 @@ impl Ledger {
         job.tiles_done += 1;
         job.stats.add(&upload.pixels.stats);
         job.noise.add(&noise);
-        job.pass_tile_done(index, upload);
+        job.pass_tile_done(index, sampling);
         let seconds = job.tiles[index as usize]
             .leased_at
             .map(|at| at.elapsed().as_secs_f64());
@@ -459,8 +459,6 @@ impl Ledger {
             worker = upload.worker_id,
             "tile done"
         );
-        // A budgeted job's last tile of a pass may start the next pass instead.
-        let complete = complete && self.end_of_pass(id)? == PassEnd::Complete;
         Ok((TileOutcome::Accepted, complete))
     }
 

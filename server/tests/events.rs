@@ -6,61 +6,11 @@ mod support;
 use std::time::Duration;
 
 use axum::body::Body;
-use axum::http::{Method, Request, StatusCode};
-use http_body_util::BodyExt;
+use axum::http::{Request, StatusCode};
 use serde_json::json;
-use spindle_common::protocol::{EventKind, FarmEvent, JobState};
+use spindle_common::protocol::{EventKind, JobState};
 use support::*;
 use tower::ServiceExt;
-
-/// Opens the stream (with `Last-Event-ID` if given) and reads `n` events from it.
-async fn read_events(c: &Coordinator, last_id: Option<u64>, n: usize) -> Vec<(String, FarmEvent)> {
-    let mut request = Request::builder()
-        .method(Method::GET)
-        .uri("/v1/events")
-        .header("authorization", format!("Bearer {CLIENT}"));
-    if let Some(id) = last_id {
-        request = request.header("last-event-id", id.to_string());
-    }
-    let response = c
-        .app
-        .clone()
-        .oneshot(request.body(Body::empty()).unwrap())
-        .await
-        .unwrap();
-    assert_eq!(response.status(), StatusCode::OK);
-    assert_eq!(response.headers()["content-type"], "text/event-stream");
-    let mut body = response.into_body();
-    let mut text = String::new();
-    let mut events = Vec::new();
-    while events.len() < n {
-        let frame = tokio::time::timeout(Duration::from_secs(5), body.frame())
-            .await
-            .expect("an event within 5 s")
-            .expect("the stream goes on")
-            .unwrap();
-        if let Ok(data) = frame.into_data() {
-            text.push_str(std::str::from_utf8(&data).unwrap());
-        }
-        while let Some(end) = text.find("\n\n") {
-            let block: String = text.drain(..end + 2).collect();
-            let field = |name: &str| {
-                block
-                    .lines()
-                    .find_map(|l| l.strip_prefix(name).map(|v| v.trim().to_string()))
-            };
-            let (Some(kind), Some(id), Some(data)) =
-                (field("event:"), field("id:"), field("data:"))
-            else {
-                continue; // a keep-alive comment
-            };
-            let event: FarmEvent = serde_json::from_str(&data).unwrap();
-            assert_eq!(event.id.to_string(), id);
-            events.push((kind, event));
-        }
-    }
-    events
-}
 
 #[tokio::test]
 async fn the_stream_tells_job_states_tiles_and_workers_and_resumes_after_an_id() {

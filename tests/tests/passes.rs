@@ -95,6 +95,74 @@ async fn a_budget_spent_by_the_first_pass_ends_the_job_after_it() {
     .await
 }
 
+/// The coordinator is killed mid pass 2 and started again on its data directory: the job goes
+/// on from the pass it was in (`JobInfo.passes` never goes back, the tiles done in pass 2 stay
+/// done) and its image is still, bit for bit, the one-pass render at the samples it reached.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_coordinator_killed_mid_pass_resumes_that_pass() {
+    bounded(async {
+        let (mut scene, assets) = scattering_test_scene(32, 24, 48);
+        scene["film"]["time_budget_s"] = serde_json::json!(3600);
+        let mut farm = Farm::of_two_workers(5.0).await?;
+        let job = farm.submit(&scene, &assets, 8).await?;
+        let total = job.tiles_total;
+        let at_kill = farm
+            .wait_job(job.id, Duration::from_secs(120), |j| {
+                let pass = j.passes.map_or(0, |p| p.pass);
+                pass > 2 || j.state.is_finished() || (pass == 2 && j.tiles_done >= 1)
+            })
+            .await?;
+        farm.kill_server();
+        let pass_at_kill = at_kill.passes.map(|p| p.pass);
+        assert!(
+            pass_at_kill == Some(2) && at_kill.tiles_done < total,
+            "the kill was meant for the middle of pass 2: {at_kill:?}"
+        );
+        farm.start_server().await?;
+        let mut seen = vec![(2, at_kill.tiles_done)];
+        let done = loop {
+            let info = farm.job(job.id).await?;
+            let pass = info.passes.expect("a budgeted job reports its passes").pass;
+            if pass == 2 {
+                assert!(
+                    info.tiles_done >= at_kill.tiles_done,
+                    "tiles done in pass 2 before the kill stay done: {info:?}"
+                );
+            }
+            seen.push((pass, info.tiles_done));
+            if info.state.is_finished() {
+                break info;
+            }
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        };
+        assert!(
+            seen.windows(2).all(|w| w[1].0 >= w[0].0),
+            "the job's pass went back: {seen:?}"
+        );
+        assert_eq!(
+            done.state,
+            spindle_common::protocol::JobState::Done,
+            "{:?}",
+            done.error
+        );
+        let passes = done.passes.expect("a budgeted job reports its passes");
+        assert_eq!((passes.pass, passes.spp), (3, 48), "{done:?}");
+        let image = farm.image(job.id).await?;
+        assert_eq!(
+            image.attributes.get("spindle.spp").map(String::as_str),
+            Some("48")
+        );
+        let mut reference_scene = scene.clone();
+        reference_scene["film"]
+            .as_object_mut()
+            .unwrap()
+            .remove("time_budget_s");
+        assert_bit_identical(&image, &reference_image(&reference_scene, &assets)?);
+        Ok(())
+    })
+    .await
+}
+
 /// A budget that is not a positive number of seconds up to a week is refused with the field
 /// named, and so is a tile too large to carry its pixels' sums between passes.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -342,7 +342,8 @@ async fn final_image(state: &AppState, id: u64) -> Result<(Vec<u8>, Vec<u8>), Er
     .map_err(anyhow::Error::from)?
 }
 
-/// A PNG preview of the tiles received so far.
+/// A PNG preview of the tiles received so far: each tile's latest result (for a job with a
+/// time budget, a tile's previous pass until its current pass is in), black where none is.
 #[utoipa::path(get, path = "/v1/jobs/{id}/image.png", params(("id" = u64, Path, description = "job id")),
     responses((status = 200, content_type = "image/png", body = Vec<u8>),
               (status = 404, body = ApiError)))]
@@ -354,7 +355,8 @@ async fn image_png(
         let ledger = state.ledger();
         let job = ledger.job(id)?;
         let done = job.state == JobState::Done;
-        (job.spec.clone(), done, ledger.done_tiles(id)?)
+        // Each tile's latest result: a budgeted job's previous pass until the current one's is in.
+        (job.spec.clone(), done, ledger.latest_results(id)?)
     };
     // A done job's tiles are gone: its preview is made from its (checked) image.
     let exr = if done {

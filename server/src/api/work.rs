@@ -209,7 +209,7 @@ async fn upload_tile(
     let limit = state.config().limits.max_tile_upload_bytes;
     // Decoding and hashing up to megabytes of floats is CPU work, and recording commits: both
     // off the runtime, on one blocking thread; the ledger is held only to record.
-    let (outcome, complete, epoch, progressive) = state
+    let (outcome, complete, epoch) = state
         .off_runtime(move |state| {
             let upload: TileUpload = match encoding {
                 UploadEncoding::Json => parse_json(&body)?,
@@ -234,16 +234,14 @@ async fn upload_tile(
                 }
             };
             let (outcome, complete) = state.ledger().record_upload(job, tile, &upload, &stored)?;
-            let progressive = upload.pixels.progress.is_some();
-            Ok((outcome, complete, upload.epoch, progressive))
+            Ok((outcome, complete, upload.epoch))
         })
         .await?;
     crate::metrics::tile_stored(job, tile, epoch, outcome);
     if complete {
+        // The last tile of the job, or of a pass: ending the pass queues the next pass's tiles
+        // and wakes the lease polls (`assemble::finish`).
         state.assemble_complete_jobs();
-    } else if progressive {
-        // The last tile of a pass queues the next pass's tiles: wake the lease polls.
-        state.work_available();
     }
     Ok(Json(TileAck { outcome }))
 }

@@ -18,7 +18,8 @@ use axum::body::{Body, Bytes};
 use axum::http::{Method, Request, StatusCode};
 use http_body_util::BodyExt;
 use serde_json::{Value, json};
-use spindle_common::protocol::{JobInfo, Lease, TileUpload, pixel_hash};
+use spindle_common::passes::{PixelSums, TileProgress, pass_cap};
+use spindle_common::protocol::{FarmEvent, JobInfo, Lease, TileUpload, pixel_hash};
 use spindle_common::provenance::Provenance;
 use spindle_common::stats::RenderStats;
 use spindle_common::tile::{TilePixels, TileRect};
@@ -379,4 +380,84 @@ pub fn scene(width: u32, height: u32) -> Value {
                          "medium": {"sigma_t": [1, 1, 1], "albedo": [0.9, 0.9, 0.9]}}
         }]
     })
+}
+
+/// The upload of a lease's fake tile of a job with a time budget and `film.spp` = `spp`: the
+/// lease's pass, every pixel at the pass's sample cap and still sampling.
+pub fn pass_upload_for(lease: &Lease, worker: u64, spp: u32) -> TileUpload {
+    let pass = lease
+        .pass
+        .expect("a lease of a budgeted job carries its pass");
+    let cap = pass_cap(pass, spp);
+    let mut pixels = fake_tile(lease.rect, lease.tile_index);
+    let sums = PixelSums {
+        taken: cap,
+        ..PixelSums::default()
+    };
+    pixels.progress = Some(TileProgress {
+        pass,
+        spp: cap,
+        pixels: vec![sums; lease.rect.pixel_count()],
+    });
+    TileUpload {
+        worker_id: worker,
+        epoch: lease.epoch,
+        hash: pixel_hash(&pixels),
+        pixels,
+        render_seconds: Some(0.5),
+        provenance: Some(test_provenance()),
+    }
+}
+
+/// Opens the stream (with `Last-Event-ID` if given) and reads `n` events from it.
+pub async fn read_events(
+    c: &Coordinator,
+    last_id: Option<u64>,
+    n: usize,
+) -> Vec<(String, FarmEvent)> {
+    let mut request = Request::builder()
+        .method(Method::GET)
+        .uri("/v1/events")
+        .header("authorization", format!("Bearer {CLIENT}"));
+    if let Some(id) = last_id {
+        request = request.header("last-event-id", id.to_string());
+    }
+    let response = c
+        .app
+        .clone()
+        .oneshot(request.body(Body::empty()).unwrap())
+        .await
+        .unwrap();
+    assert_eq!(response.status(), StatusCode::OK);
+    assert_eq!(response.headers()["content-type"], "text/event-stream");
+    let mut body = response.into_body();
+    let mut text = String::new();
+    let mut events = Vec::new();
+    while events.len() < n {
+        let frame = tokio::time::timeout(Duration::from_secs(5), body.frame())
+            .await
+            .expect("an event within 5 s")
+            .expect("the stream goes on")
+            .unwrap();
+        if let Ok(data) = frame.into_data() {
+            text.push_str(std::str::from_utf8(&data).unwrap());
+        }
+        while let Some(end) = text.find("\n\n") {
+            let block: String = text.drain(..end + 2).collect();
+            let field = |name: &str| {
+                block
+                    .lines()
+                    .find_map(|l| l.strip_prefix(name).map(|v| v.trim().to_string()))
+            };
+            let (Some(kind), Some(id), Some(data)) =
+                (field("event:"), field("id:"), field("data:"))
+            else {
+                continue; // a keep-alive comment
+            };
+            let event: FarmEvent = serde_json::from_str(&data).unwrap();
+            assert_eq!(event.id.to_string(), id);
+            events.push((kind, event));
+        }
+    }
+    events
 }
