@@ -332,7 +332,7 @@ impl Job {
 
     /// Rebuilds the per-tile state of a live job from its stored tile rows. Tiles recorded as
     /// leased keep their lease until `lease_deadline` (after a restart), or are pending (`None`).
-    fn restore_tiles(
+    pub(crate) fn restore_tiles(
         &mut self,
         db: &Connection,
         lease_deadline: Option<Instant>,
@@ -1127,9 +1127,15 @@ impl Ledger {
     }
 
     /// Puts finished tiles whose stored result turned out damaged (`(index, why)`) back in the
-    /// queue, to be rendered again; the job's statistics drop theirs.
+    /// queue, to be rendered again; the job's statistics drop theirs. A budgeted job past its
+    /// first pass starts its passes again ([`Ledger::restart_passes_after_damage`]).
     pub fn requeue_damaged(&mut self, id: u64, damaged: &[(u32, String)]) -> Result<(), Error> {
-        self.job(id)?;
+        // Past pass 1 of a budgeted job a tile continues an earlier pass the row no longer keeps.
+        if let Some((index, why)) = damaged.first()
+            && self.job(id)?.passes.as_ref().is_some_and(|p| p.pass() > 1)
+        {
+            return self.restart_passes_after_damage(id, *index, why);
+        }
         let tx = self.db.transaction()?;
         for (index, _) in damaged {
             db::requeue_tile(&tx, id, *index)?;

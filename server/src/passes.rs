@@ -24,7 +24,10 @@
 //! result: [`db::next_pass_tile`]) and, per tile done in the current pass, its pixels still
 //! sampling. A restarted coordinator resumes the pass it was in; only a job stored before this
 //! was recorded, or one requeued after it failed or was cancelled, is rendered again from pass
-//! 1 ([`Ledger::restart_passes`]).
+//! 1 ([`Ledger::restart_passes`]). So is a job past pass 1 one of whose stored results turns
+//! out damaged (read for the next pass or at assembly): a tile's pass continues the tile's
+//! previous pass, whose result its row no longer keeps, so the tile cannot be rendered again
+//! alone ([`Ledger::restart_passes_after_damage`]; the reason goes to the job's recent errors).
 //!
 //! The budget is wall time while the job is runnable: the intervals it spent paused are
 //! subtracted from both the time since its start and the last pass's time (a coordinator that
@@ -39,7 +42,7 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 use spindle_common::passes::pass_cap;
-use spindle_common::protocol::{JobSpec, PassInfo, TileUpload};
+use spindle_common::protocol::{JobSpec, PassInfo, TileError, TileUpload};
 
 use crate::db;
 use crate::error::{Error, is_disk_full};
@@ -443,6 +446,62 @@ impl Ledger {
                 passes.pass()
             ))
         })
+    }
+
+    /// Starts budgeted job `id`'s passes again from pass 1 because tile `index`'s stored result
+    /// was damaged (`why`): the pass it belongs to continued from an earlier pass's result that
+    /// the tile row no longer keeps, so that tile cannot be rendered again alone. Every tile goes
+    /// back to the queue (leases held are stale from here); the budget keeps counting from the
+    /// job's start, with pass 1 timed from now; the reason is kept in the job's recent errors.
+    pub fn restart_passes_after_damage(
+        &mut self,
+        id: u64,
+        index: u32,
+        why: &str,
+    ) -> Result<(), Error> {
+        let at_ms = now_ms();
+        let job = self.job(id)?;
+        let Some(clock) = job.clock_with(|clock| {
+            *clock = PassClock {
+                pass: 1,
+                started_ms: Some(at_ms),
+                pass_paused_ms: 0,
+                complete: false,
+                ..clock.clone()
+            };
+        })?
+        else {
+            return Err(Error::Conflict(format!("job {id} has no time budget")));
+        };
+        let tiles = job.tiles_total;
+        let tx = self.db.transaction()?;
+        for tile in 0..tiles {
+            db::requeue_tile(&tx, id, tile)?;
+        }
+        db::set_passes(&tx, id, &clock.1)?;
+        tx.commit()?;
+        let job = self
+            .jobs
+            .get_mut(&id)
+            .ok_or_else(|| Error::NotFound(format!("job {id} does not exist")))?;
+        job.passes = Passes::of(&job.spec);
+        job.set_clock(Some(clock));
+        job.restore_tiles(&self.db, None)?;
+        job.assembling = false;
+        let message = format!(
+            "{why}; a pass of one tile of a budgeted job cannot be rendered again alone: the \
+             job's passes start again from pass 1"
+        );
+        tracing::error!(job = id, tile = index, %why, "stored tile damaged; passes restart from pass 1");
+        job.remember_error(TileError {
+            tile: index,
+            worker_id: 0,
+            worker: "coordinator".into(),
+            at_ms,
+            message,
+        });
+        self.job_changed(id);
+        Ok(())
     }
 
     /// Puts every tile of budgeted job `id` back in the queue for pass 1, and stores pass 1

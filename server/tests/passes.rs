@@ -356,3 +356,120 @@ async fn the_preview_keeps_the_previous_pass_until_the_next_is_in() {
         }
     }
 }
+
+/// Tile 0's pass-1 result, stored and found damaged while pass 2 asks for it: the pass cannot
+/// go on from it and the row keeps nothing earlier, so the job's passes start again from pass
+/// 1 (said to the worker and in the job's recent errors; the pass-2 leases are stale), and the
+/// job still completes all its passes. Before, every worker failed the tile and the job failed.
+#[tokio::test]
+async fn a_damaged_result_a_later_pass_needs_restarts_the_passes() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = Coordinator::open(cfg(dir.path())).await;
+    let job = c.submit(budgeted(32, 3600.0)).await;
+    let w = c.register("w").await;
+    upload_all(&c, job.id, w, &lease_all(&c, w).await).await;
+    wait_pass(&c, job.id, 2).await;
+    let db = rusqlite::Connection::open(dir.path().join("spindle.db")).unwrap();
+    db.busy_timeout(Duration::from_secs(5)).unwrap();
+    let damaged = db
+        .execute(
+            "UPDATE tiles SET upload = X'00' WHERE job_id = ?1 AND tile_index = 0",
+            [job.id as i64],
+        )
+        .unwrap();
+    assert_eq!(damaged, 1);
+    let leases = lease_all(&c, w).await;
+    assert!(leases.iter().all(|l| l.pass == Some(2)), "{leases:?}");
+    let (status, body) = c
+        .send_as(
+            Method::GET,
+            &format!("/v1/leases/{}/0/previous", job.id),
+            Some(WORKER),
+            Some(&c.secret(w)),
+            "",
+        )
+        .await;
+    let said = serde_json::from_slice::<serde_json::Value>(&body).unwrap()["error"].to_string();
+    assert_eq!(status, StatusCode::CONFLICT, "{said}");
+    assert!(said.contains("start again from pass 1"), "{said}");
+    let info = c.job(job.id).await;
+    assert_eq!(info.state, JobState::Running);
+    assert_eq!(pass_of(&info).map(|p| p.pass), Some(1), "{info:?}");
+    assert_eq!(info.tiles_done, 0);
+    assert!(
+        info.recent_errors
+            .iter()
+            .any(|e| e.tile == 0 && e.message.contains("start again from pass 1")),
+        "{:?}",
+        info.recent_errors
+    );
+    // The pass-2 leases are stale: their results are refused.
+    let (status, _) = c
+        .upload(job.id, 1, &pass_upload_for(&leases[1], w, SPP))
+        .await;
+    assert_eq!(status, StatusCode::CONFLICT);
+    for pass in 1..=4 {
+        let leases = lease_all(&c, w).await;
+        assert_eq!(leases.len(), 4, "pass {pass}");
+        assert!(leases.iter().all(|l| l.pass == Some(pass)), "{leases:?}");
+        upload_all(&c, job.id, w, &leases).await;
+        if pass < 4 {
+            wait_pass(&c, job.id, pass + 1).await;
+        }
+    }
+    let done = c.wait_finished(job.id).await;
+    assert_eq!(done.state, JobState::Done, "{:?}", done.error);
+    assert_eq!(pass_of(&done).map(|p| (p.pass, p.spp)), Some((4, 64)));
+}
+
+/// The same found at assembly: tile 0's last-pass result damaged before the job's image is
+/// made. Rendering pass 4 of that tile again would need its pass-3 result, which the row no
+/// longer keeps, so the passes start again from pass 1 and the job completes them.
+#[tokio::test]
+async fn a_damaged_result_at_assembly_restarts_the_passes() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = Coordinator::open(cfg(dir.path())).await;
+    let job = c.submit(budgeted(32, 3600.0)).await;
+    let w = c.register("w").await;
+    let run_passes = |c: &Coordinator, damage_in_last: bool| {
+        let c = c.share();
+        let path = dir.path().join("spindle.db");
+        async move {
+            for pass in 1..=4 {
+                let leases = lease_all(&c, w).await;
+                assert!(leases.iter().all(|l| l.pass == Some(pass)), "{leases:?}");
+                if pass == 4 && damage_in_last {
+                    upload_all(&c, job.id, w, &leases[..3]).await;
+                    let db = rusqlite::Connection::open(&path).unwrap();
+                    db.busy_timeout(Duration::from_secs(5)).unwrap();
+                    let index = leases[0].tile_index;
+                    db.execute(
+                        "UPDATE tiles SET upload = X'00' WHERE job_id = ?1 AND tile_index = ?2",
+                        rusqlite::params![job.id as i64, index],
+                    )
+                    .unwrap();
+                    upload_all(&c, job.id, w, &leases[3..]).await;
+                    return;
+                }
+                upload_all(&c, job.id, w, &leases).await;
+                if pass < 4 {
+                    wait_pass(&c, job.id, pass + 1).await;
+                }
+            }
+        }
+    };
+    run_passes(&c, true).await;
+    let info = wait_pass(&c, job.id, 1).await;
+    assert_eq!(info.state, JobState::Running, "{:?}", info.error);
+    assert!(
+        info.recent_errors
+            .iter()
+            .any(|e| e.message.contains("start again from pass 1")),
+        "{:?}",
+        info.recent_errors
+    );
+    run_passes(&c, false).await;
+    let done = c.wait_finished(job.id).await;
+    assert_eq!(done.state, JobState::Done, "{:?}", done.error);
+    assert_eq!(pass_of(&done).map(|p| (p.pass, p.spp)), Some((4, 64)));
+}

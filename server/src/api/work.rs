@@ -311,7 +311,7 @@ async fn fail_tile(
     responses((status = 200, description = "the previous pass's TilePixels, MessagePack compressed with zstd",
                content_type = "application/vnd.spindle.tile+msgpack+zstd", body = Vec<u8>),
               (status = 404, body = ApiError, description = "no such job or tile, or the tile is in its first pass"),
-              (status = 409, body = ApiError, description = "the tile is not leased to this worker, or its previous result is damaged")))]
+              (status = 409, body = ApiError, description = "the tile is not leased to this worker, or its previous result is damaged (the job's passes then start again from pass 1)")))]
 async fn previous_pass(
     State(state): State<AppState>,
     identity: WorkerIdentity,
@@ -319,16 +319,29 @@ async fn previous_pass(
 ) -> Result<Response, Error> {
     let hash = state.ledger().previous_result(job, tile, identity.0)?;
     let store = state.tile_store().clone();
-    let bytes = tokio::task::spawn_blocking(move || {
-        let pixels = store.read(job, tile, &hash).map_err(|e| match e {
-            // The pass cannot go on from it: the worker reports the tile as failed, and the
-            // failure rules decide (not retried forever).
-            ReadError::Damaged(why) => Error::Conflict(why),
-            ReadError::Io(why) => Error::Internal(anyhow::anyhow!(why)),
-        })?;
-        tile_encoding::encode(&pixels).map_err(|e| Error::Internal(anyhow::anyhow!("{e}")))
+    let read = tokio::task::spawn_blocking(move || match store.read(job, tile, &hash) {
+        Ok(pixels) => tile_encoding::encode(&pixels)
+            .map(Ok)
+            .map_err(|e| Error::Internal(anyhow::anyhow!("{e}"))),
+        Err(ReadError::Damaged(why)) => Ok(Err(why)),
+        Err(ReadError::Io(why)) => Err(Error::Internal(anyhow::anyhow!(why))),
     })
     .await
     .map_err(anyhow::Error::from)??;
+    let bytes = match read {
+        Ok(bytes) => bytes,
+        // The pass cannot go on from it, nor can the tile's earlier passes be had again: the
+        // job starts over from pass 1, and this lease is stale from here.
+        Err(why) => {
+            let reason = why.clone();
+            state
+                .with_ledger(move |l| l.restart_passes_after_damage(job, tile, &reason))
+                .await?;
+            state.work_available();
+            return Err(Error::Conflict(format!(
+                "{why}; the job's passes start again from pass 1"
+            )));
+        }
+    };
     Ok(([(header::CONTENT_TYPE, tile_encoding::CONTENT_TYPE)], bytes).into_response())
 }
