@@ -360,7 +360,8 @@ async fn the_preview_keeps_the_previous_pass_until_the_next_is_in() {
 /// Tile 0's pass-1 result, stored and found damaged while pass 2 asks for it: the pass cannot
 /// go on from it and the row keeps nothing earlier, so the job's passes start again from pass
 /// 1 (said to the worker and in the job's recent errors; the pass-2 leases are stale), and the
-/// job still completes all its passes. Before, every worker failed the tile and the job failed.
+/// job still completes all its passes. Before, the worker reported the tile failed, and the
+/// failure rules failed the job once the tile had failed on enough workers.
 #[tokio::test]
 async fn a_damaged_result_a_later_pass_needs_restarts_the_passes() {
     let dir = tempfile::tempdir().unwrap();
