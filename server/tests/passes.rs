@@ -142,23 +142,67 @@ async fn a_restarted_coordinator_resumes_the_pass_it_was_in() {
     );
 }
 
+/// The coordinator's database under `data`, opened beside the running coordinator.
+fn ledger_db(data: &std::path::Path) -> rusqlite::Connection {
+    let db = rusqlite::Connection::open(data.join("spindle.db")).unwrap();
+    db.busy_timeout(Duration::from_secs(5)).unwrap();
+    db
+}
+
+/// Damages the stored result of tile `index` of `job`, as a failing disk would.
+fn damage_stored_result(data: &std::path::Path, job: u64, index: u32) {
+    let damaged = ledger_db(data)
+        .execute(
+            "UPDATE tiles SET upload = X'00' WHERE job_id = ?1 AND tile_index = ?2",
+            rusqlite::params![job as i64, index],
+        )
+        .unwrap();
+    assert_eq!(damaged, 1);
+}
+
+/// Renders `passes` of the only job here (leases all its tiles in each, each carrying that pass),
+/// waiting for each next pass; after the last pass (4) the job must end Done at 64 spp.
+async fn render_passes(
+    c: &Coordinator,
+    job: u64,
+    worker: u64,
+    passes: std::ops::RangeInclusive<u32>,
+) {
+    let tiles = c.job(job).await.tiles_total;
+    for pass in passes {
+        let leases = lease_all(c, worker).await;
+        assert_eq!(leases.len() as u32, tiles, "pass {pass}");
+        assert!(
+            leases.iter().all(|l| l.pass == Some(pass)),
+            "pass {pass}: {leases:?}"
+        );
+        upload_all(c, job, worker, &leases).await;
+        if pass < SPP / 16 {
+            wait_pass(c, job, pass + 1).await;
+        } else {
+            let done = c.wait_finished(job).await;
+            assert_eq!(done.state, JobState::Done, "{:?}", done.error);
+            assert_eq!(pass_of(&done).map(|p| (p.pass, p.spp)), Some((4, SPP)));
+        }
+    }
+}
+
 /// Installs a fault in the database under `data`: putting a done tile back in the queue (what
 /// ending a pass does) fails.
 fn refuse_next_passes(data: &std::path::Path) {
-    let db = rusqlite::Connection::open(data.join("spindle.db")).unwrap();
-    db.busy_timeout(Duration::from_secs(5)).unwrap();
-    db.execute_batch(
-        "CREATE TRIGGER refuse_next_pass BEFORE UPDATE OF state ON tiles
+    ledger_db(data)
+        .execute_batch(
+            "CREATE TRIGGER refuse_next_pass BEFORE UPDATE OF state ON tiles
          WHEN OLD.state = 'done' AND NEW.state = 'pending'
          BEGIN SELECT RAISE(ABORT, 'injected fault: no next pass'); END;",
-    )
-    .unwrap();
+        )
+        .unwrap();
 }
 
 fn allow_next_passes(data: &std::path::Path) {
-    let db = rusqlite::Connection::open(data.join("spindle.db")).unwrap();
-    db.busy_timeout(Duration::from_secs(5)).unwrap();
-    db.execute_batch("DROP TRIGGER refuse_next_pass;").unwrap();
+    ledger_db(data)
+        .execute_batch("DROP TRIGGER refuse_next_pass;")
+        .unwrap();
 }
 
 /// The database refuses to end pass 1 for a while: the last tile of the pass is still
@@ -186,15 +230,7 @@ async fn a_failed_end_of_pass_is_retried_until_it_passes() {
     let info = wait_pass(&c, job.id, 2).await;
     assert_eq!(info.state, JobState::Running, "{info:?}");
     assert_eq!(info.tiles_done, 0, "pass 2 has begun");
-    for pass in 2..=4 {
-        let leases = lease_all(&c, w).await;
-        assert!(leases.iter().all(|l| l.pass == Some(pass)), "{leases:?}");
-        upload_all(&c, job.id, w, &leases).await;
-        wait_pass(&c, job.id, pass + 1).await;
-    }
-    let done = c.wait_finished(job.id).await;
-    assert_eq!(done.state, JobState::Done, "{:?}", done.error);
-    assert_eq!(pass_of(&done).map(|p| (p.pass, p.spp)), Some((4, 64)));
+    render_passes(&c, job.id, w, 2..=4).await;
 }
 
 /// The database keeps refusing: after the attempts the job fails, with the reason in its
@@ -370,15 +406,7 @@ async fn a_damaged_result_a_later_pass_needs_restarts_the_passes() {
     let w = c.register("w").await;
     upload_all(&c, job.id, w, &lease_all(&c, w).await).await;
     wait_pass(&c, job.id, 2).await;
-    let db = rusqlite::Connection::open(dir.path().join("spindle.db")).unwrap();
-    db.busy_timeout(Duration::from_secs(5)).unwrap();
-    let damaged = db
-        .execute(
-            "UPDATE tiles SET upload = X'00' WHERE job_id = ?1 AND tile_index = 0",
-            [job.id as i64],
-        )
-        .unwrap();
-    assert_eq!(damaged, 1);
+    damage_stored_result(dir.path(), job.id, 0);
     let leases = lease_all(&c, w).await;
     assert!(leases.iter().all(|l| l.pass == Some(2)), "{leases:?}");
     let (status, body) = c
@@ -409,18 +437,7 @@ async fn a_damaged_result_a_later_pass_needs_restarts_the_passes() {
         .upload(job.id, 1, &pass_upload_for(&leases[1], w, SPP))
         .await;
     assert_eq!(status, StatusCode::CONFLICT);
-    for pass in 1..=4 {
-        let leases = lease_all(&c, w).await;
-        assert_eq!(leases.len(), 4, "pass {pass}");
-        assert!(leases.iter().all(|l| l.pass == Some(pass)), "{leases:?}");
-        upload_all(&c, job.id, w, &leases).await;
-        if pass < 4 {
-            wait_pass(&c, job.id, pass + 1).await;
-        }
-    }
-    let done = c.wait_finished(job.id).await;
-    assert_eq!(done.state, JobState::Done, "{:?}", done.error);
-    assert_eq!(pass_of(&done).map(|p| (p.pass, p.spp)), Some((4, 64)));
+    render_passes(&c, job.id, w, 1..=4).await;
 }
 
 /// The same found at assembly: tile 0's last-pass result damaged before the job's image is
@@ -432,34 +449,12 @@ async fn a_damaged_result_at_assembly_restarts_the_passes() {
     let c = Coordinator::open(cfg(dir.path())).await;
     let job = c.submit(budgeted(32, 3600.0)).await;
     let w = c.register("w").await;
-    let run_passes = |c: &Coordinator, damage_in_last: bool| {
-        let c = c.share();
-        let path = dir.path().join("spindle.db");
-        async move {
-            for pass in 1..=4 {
-                let leases = lease_all(&c, w).await;
-                assert!(leases.iter().all(|l| l.pass == Some(pass)), "{leases:?}");
-                if pass == 4 && damage_in_last {
-                    upload_all(&c, job.id, w, &leases[..3]).await;
-                    let db = rusqlite::Connection::open(&path).unwrap();
-                    db.busy_timeout(Duration::from_secs(5)).unwrap();
-                    let index = leases[0].tile_index;
-                    db.execute(
-                        "UPDATE tiles SET upload = X'00' WHERE job_id = ?1 AND tile_index = ?2",
-                        rusqlite::params![job.id as i64, index],
-                    )
-                    .unwrap();
-                    upload_all(&c, job.id, w, &leases[3..]).await;
-                    return;
-                }
-                upload_all(&c, job.id, w, &leases).await;
-                if pass < 4 {
-                    wait_pass(&c, job.id, pass + 1).await;
-                }
-            }
-        }
-    };
-    run_passes(&c, true).await;
+    render_passes(&c, job.id, w, 1..=3).await;
+    let leases = lease_all(&c, w).await;
+    assert!(leases.iter().all(|l| l.pass == Some(4)), "{leases:?}");
+    upload_all(&c, job.id, w, &leases[..3]).await;
+    damage_stored_result(dir.path(), job.id, leases[0].tile_index);
+    upload_all(&c, job.id, w, &leases[3..]).await;
     let info = wait_pass(&c, job.id, 1).await;
     assert_eq!(info.state, JobState::Running, "{:?}", info.error);
     assert!(
@@ -469,8 +464,5 @@ async fn a_damaged_result_at_assembly_restarts_the_passes() {
         "{:?}",
         info.recent_errors
     );
-    run_passes(&c, false).await;
-    let done = c.wait_finished(job.id).await;
-    assert_eq!(done.state, JobState::Done, "{:?}", done.error);
-    assert_eq!(pass_of(&done).map(|p| (p.pass, p.spp)), Some((4, 64)));
+    render_passes(&c, job.id, w, 1..=4).await;
 }
