@@ -1,38 +1,53 @@
 //! One light point per camera sample, in the role of the point light of [H15] eq. 10.
 //!
 //! Every single-scattering method connects a whole camera segment to one light *point* `L`: the
-//! refraction solve needs fixed ends. A point light is used as it is. A sphere light is sampled
-//! by area, one point `y` per camera sample (per light), and then acts as a point light of
-//! direction-dependent intensity `I_eff(ω) = L_e · max(0, n_y·ω) / pdf_A(y)` toward a receiver
-//! in direction `ω` from `y` (physics.md §1.1, "Area lights"). Emission is one-sided: a receiver
-//! behind the tangent plane at `y` sees the sphere's other side there, so it gets nothing from
-//! this sample (which is also what a shadow ray against the sphere would say).
+//! refraction solve needs fixed ends. A point light is used as it is. An area light becomes one
+//! point per camera sample (per light) that acts as a point light of direction-dependent
+//! intensity `I_eff(ω)` toward a receiver in direction `ω` from it (physics.md §1.1, "Area
+//! lights"); the methods only ever ask for `I_eff` of the path they solved.
 //!
-//! The points come from a mixture of densities (one-sample, weighted by the mixture's density,
-//! so unbiased). Most are drawn **by solid angle as seen from the camera segment** — from its
-//! two ends and its middle, a third each ([`Receivers::of_segment`]): the weight
-//! `L_e · cos_y / pdf_A` is then nearly constant for receivers that see the light from about the
-//! direction an apex does, which is what makes a small or distant sphere light quiet. The rest
-//! are drawn uniformly on the **cap of the sphere that can be seen from the object's bounding
-//! sphere** (a cone about the axis toward the object, of half-angle `acos(R/(d + r_o)) +
-//! asin(r_o/d)` for a light of radius `R` at distance `d` from the centre of an object of
-//! bounding radius `r_o`): every point visible from anywhere in the object can be drawn, and no
-//! weight exceeds `L_e / ((1 − share) pdf_cap)`. When the object's bounding sphere reaches the
-//! light, the cap is the whole sphere; an apex inside the light has no share, and when every
-//! apex is, only the cap is used. A quad light is sampled the same way: by solid angle from each
-//! apex in front of it (its spherical rectangle seen from there) with the same share, else
-//! uniformly by area, which covers every point and bounds every weight by
-//! `L_e · A / (1 − share)`; by area alone when no apex is in front of the quad or sees it under
-//! less than [`MIN_SOLID_ANGLE`](crate::light::rectangle::MIN_SOLID_ANGLE). Several lights are
-//! summed by the caller, one sample each.
+//! **A sphere light is sampled inside** (when the object's bounding sphere is clear of it). The
+//! light that reaches a receiver from a sphere of uniform radiance `L_e` is `L_e` along every
+//! line through the sphere; a line is as well named by any point `y` of it inside the sphere
+//! as by the point where it leaves, and in the volume `dV = dA⊥ ds` the chord's points share the
+//! line's measure. So a point `y` drawn with density `pdf_V` inside the sphere is a point light
+//! of intensity `I_eff(ω) = L_e / (pdf_V(y) · chord_y(ω))`, `chord_y(ω)` the length of the line
+//! through `y` along `ω` inside the sphere — for any path, refracted or not, since the pencil's
+//! cross-section times the geometric factor is constant along its straight part outside the
+//! object. The points are drawn uniformly on the disk through the centre across the direction
+//! `a` toward an apex (the camera segment's ends and middle, one third each,
+//! [`Receivers::of_segment`]), then uniformly along the chord along `a`: `pdf_V =
+//! mean_a 1/(π R² chord_y(a))`. For a path leaving toward an apex, `I_eff = π R² L_e` exactly,
+//! the equivalent point light; a path at an angle δ from it spreads by the ratio of two chords
+//! through `y`, 0.09 of the mean at δ = 5°, 0.17 at 10°, 0.23 at 15° — where drawing on the
+//! surface by solid angle from the apex (the cosine at the light in the weight, 0.9 of the
+//! samples) spreads by 0.16 at δ = 0, 0.20, 0.30 and 0.43 (`python3
+//! docs/bench/ball-spread.py`). The light leaves the sphere beyond `y`
+//! ([`LightPoint::emitter_gap`]), where a shadow ray toward `y` stops.
+//!
+//! **On the surface otherwise** (the object's bounding sphere reaches the light, so a receiver
+//! may be inside it): points from a mixture of densities (one-sample, weighted by the mixture's
+//! density, so unbiased), `I_eff(ω) = L_e · max(0, n_y·ω) / pdf_A(y)`; emission is one-sided (a
+//! receiver behind the tangent plane at `y` sees the sphere's other side there). Most are drawn
+//! by solid angle as seen from the apexes; the rest uniformly on the **cap of the sphere that can
+//! be seen from the object's bounding sphere** (a cone about the axis toward the object, of
+//! half-angle `acos(R/(d + r_o)) + asin(r_o/d)` for a light of radius `R` at distance `d` from the
+//! centre of an object of bounding radius `r_o`): every point visible from anywhere in the object
+//! can be drawn, and no weight exceeds `L_e / ((1 − share) pdf_cap)`. When the object's bounding
+//! sphere reaches the light, the cap is the whole sphere; an apex inside the light has no share,
+//! and when every apex is, only the cap is used.
+//!
+//! **A quad light** is sampled the same way on its surface: by solid angle from each apex in
+//! front of it (its spherical rectangle seen from there) with the same share, else uniformly by
+//! area, which covers every point and bounds every weight by `L_e · A / (1 − share)`; by area
+//! alone when no apex is in front of the quad or sees it under less than
+//! [`MIN_SOLID_ANGLE`](crate::light::rectangle::MIN_SOLID_ANGLE). Several lights are summed by
+//! the caller, one sample each.
 //!
 //! Why the segment and not the object's centre: a light point serves every receiver of the
-//! segment at once (the refraction solve needs it fixed), and no density chosen without knowing
-//! the receivers does much better than the centre's on a whole object's lit side — the best
-//! single density for receivers spread over a unit sphere's lit side, a light of radius 0.1 at
-//! distance 4, still leaves a per-sample spread of 0.23 (on the axis) to 0.38 (at the rim)
-//! (docs/benchmarks.md §7b). A segment's receivers are fewer and closer together; sampled from
-//! the segment the sphere lights' error at 16 samples per pixel falls by a third.
+//! segment at once (the refraction solve needs it fixed), and the receivers of a segment see the
+//! light from closer directions than those of the whole object's lit side (docs/benchmarks.md
+//! §7b, §7c).
 
 use glam::DVec3;
 
@@ -53,6 +68,18 @@ pub enum LightPoint {
         normal: DVec3,
         radiance_over_pdf: Rgb,
     },
+    /// A point `position` inside a sphere light (`center`, `radius`), standing for the light's
+    /// surface along every line through it: toward a receiver in direction `ω` it sends
+    /// `L_e / (pdf_V(y) · chord(ω))`, `chord(ω)` the length of the line through `y` along `ω`
+    /// inside the sphere, and the light leaves the sphere [`emitter_gap`](Self::emitter_gap)
+    /// beyond `y` (see the module doc).
+    Ball {
+        position: DVec3,
+        center: DVec3,
+        radius: f64,
+        /// `L_e / pdf_V(y)`: radiance over the volume density of the sample.
+        radiance_over_pdf: Rgb,
+    },
     /// A directional light's far point (`Light::Directional`): its intensity toward a receiver
     /// is `irradiance · ‖p − position‖²`, so the irradiance it gives is the same everywhere.
     Distant { position: DVec3, irradiance: Rgb },
@@ -64,6 +91,7 @@ impl LightPoint {
         match *self {
             LightPoint::Point { position, .. }
             | LightPoint::Area { position, .. }
+            | LightPoint::Ball { position, .. }
             | LightPoint::Distant { position, .. } => position,
         }
     }
@@ -84,10 +112,39 @@ impl LightPoint {
                 };
                 radiance_over_pdf * normal.dot(toward).max(0.0)
             }
+            LightPoint::Ball {
+                position,
+                center,
+                radius,
+                radiance_over_pdf,
+            } => {
+                let Some(toward) = (p - position).try_normalize() else {
+                    return Rgb::ZERO;
+                };
+                match chord_through(position - center, radius, toward) {
+                    Some((back, ahead)) if back + ahead > 0.0 => radiance_over_pdf / (back + ahead),
+                    _ => Rgb::ZERO,
+                }
+            }
             LightPoint::Distant {
                 position,
                 irradiance,
             } => irradiance * p.distance_squared(position),
+        }
+    }
+
+    /// How far beyond the light point, along the unit direction `toward`, the light leaves its
+    /// emitter: zero but for a point inside a sphere light, where it is the distance to the
+    /// sphere. A shadow ray toward the light point stops there.
+    pub fn emitter_gap(&self, toward: DVec3) -> f64 {
+        match *self {
+            LightPoint::Ball {
+                position,
+                center,
+                radius,
+                ..
+            } => chord_through(position - center, radius, toward).map_or(0.0, |(_, ahead)| ahead),
+            _ => 0.0,
         }
     }
 
@@ -96,6 +153,9 @@ impl LightPoint {
         match *self {
             LightPoint::Point { intensity, .. } => intensity.max_element() <= 0.0,
             LightPoint::Area {
+                radiance_over_pdf, ..
+            }
+            | LightPoint::Ball {
                 radiance_over_pdf, ..
             } => radiance_over_pdf.max_element() <= 0.0,
             LightPoint::Distant { irradiance, .. } => irradiance.max_element() <= 0.0,
@@ -143,8 +203,14 @@ impl Receivers {
 }
 
 /// The light point of `light` for a receiver anywhere in `receivers.object` (its bounding
-/// sphere), from two uniform numbers in `[0, 1)`.
-pub fn sample_light(light: &Light, receivers: Receivers, u: [f64; 2]) -> LightPoint {
+/// sphere), from two uniform numbers in `[0, 1)`, and a third from `more` for a sphere light
+/// sampled inside (drawn only then).
+pub fn sample_light(
+    light: &Light,
+    receivers: Receivers,
+    u: [f64; 2],
+    more: impl FnOnce() -> f64,
+) -> LightPoint {
     match *light {
         Light::Point {
             position,
@@ -167,6 +233,16 @@ pub fn sample_light(light: &Light, receivers: Receivers, u: [f64; 2]) -> LightPo
             radius,
             radiance,
         } => {
+            if let Some(ball) = BallSampling::new(center, radius, receivers) {
+                let position = ball.sample(u, more());
+                let pdf = ball.pdf_volume(position);
+                return LightPoint::Ball {
+                    position,
+                    center,
+                    radius,
+                    radiance_over_pdf: if pdf > 0.0 { radiance / pdf } else { Rgb::ZERO },
+                };
+            }
             let sphere = SphereSampling::new(center, radius, receivers);
             let (position, normal) = sphere.sample(u);
             // Every sample lies in the cap, whose share of the density is positive.
@@ -225,6 +301,73 @@ pub fn sample_light(light: &Light, receivers: Receivers, u: [f64; 2]) -> LightPo
             }
         }
     }
+}
+
+/// The density a sphere light's inside points are drawn from: for each apex in turn, uniform
+/// on the disk through the centre across the direction `a` toward it, then uniform along the
+/// chord through that point along `a` — density `1 / (π R² · chord_a(y))` — and the mixture of
+/// the apexes' densities.
+#[derive(Debug, Clone, Copy)]
+struct BallSampling {
+    center: DVec3,
+    radius: f64,
+    axes: [DVec3; APEXES],
+}
+
+impl BallSampling {
+    /// The sampling for receivers in `receivers.object`, or `None` when that sphere reaches the
+    /// light (a receiver inside the light would see no line through the sample leave it toward
+    /// itself), where the light is sampled on its surface.
+    fn new(center: DVec3, radius: f64, receivers: Receivers) -> Option<BallSampling> {
+        let object = receivers.object;
+        if center.distance(object.center) <= (object.radius + radius) * (1.0 + 1e-9) {
+            return None;
+        }
+        let axes = receivers.apexes.map(|apex| (apex - center).try_normalize());
+        if axes.iter().any(Option::is_none) {
+            return None;
+        }
+        Some(BallSampling {
+            center,
+            radius,
+            axes: axes.map(|a| a.expect("checked above")),
+        })
+    }
+
+    fn sample(&self, u: [f64; 2], along: f64) -> DVec3 {
+        let (k, u0) = pick(u[0], APEXES);
+        let axis = self.axes[k];
+        let rho = self.radius * u0.sqrt();
+        let phi = std::f64::consts::TAU * u[1];
+        let (s, t) = axis.any_orthonormal_pair();
+        let half = (self.radius * self.radius - rho * rho).max(0.0).sqrt();
+        self.center + rho * (phi.cos() * s + phi.sin() * t) + (2.0 * along - 1.0) * half * axis
+    }
+
+    /// The mixture's density per unit volume at `y` (inside the light).
+    fn pdf_volume(&self, y: DVec3) -> f64 {
+        let disk = std::f64::consts::PI * self.radius * self.radius;
+        let sum: f64 = self
+            .axes
+            .iter()
+            .filter_map(|&a| chord_through(y - self.center, self.radius, a))
+            .map(|(back, ahead)| 1.0 / (disk * (back + ahead)))
+            .filter(|p| p.is_finite())
+            .sum();
+        sum / APEXES as f64
+    }
+}
+
+/// For the point `offset` from a sphere's centre (inside it) and a unit direction `dir`, the
+/// distances to the sphere backward and forward along `dir`; `None` when the line misses it.
+fn chord_through(offset: DVec3, radius: f64, dir: DVec3) -> Option<(f64, f64)> {
+    let b = offset.dot(dir);
+    let c = offset.length_squared() - radius * radius;
+    let disc = b * b - c;
+    (disc >= 0.0).then(|| {
+        let root = disc.sqrt();
+        (b + root, root - b)
+    })
 }
 
 /// The densities a sphere light's points are drawn from, and their mixture.

@@ -1,23 +1,54 @@
 use super::*;
 
-/// The fluence rate at `p` estimated from the light points of a stratified 400×400 grid of
-/// samples: `mean(I_eff(p) / ‖y − p‖²)`.
-fn fluence_estimate(light: &Light, object: BoundingSphere, p: DVec3) -> Rgb {
+/// The fluence rate at `p` estimated from light points, `mean(I_eff(p) / ‖y − p‖²)`, and the
+/// relative error it may have (see [`sampled_mean`]).
+fn fluence_estimate(light: &Light, object: BoundingSphere, p: DVec3) -> (Rgb, f64) {
     fluence_estimate_from(light, Receivers::about_centre(object), p)
 }
 
 /// The same with the light sampled for `receivers`.
-fn fluence_estimate_from(light: &Light, receivers: Receivers, p: DVec3) -> Rgb {
-    let n = 400;
-    let mut sum = Rgb::ZERO;
-    for i in 0..n {
-        for j in 0..n {
-            let u = [(i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64];
-            let point = sample_light(light, receivers, u);
-            sum += point.intensity_toward(p) / point.position().distance_squared(p);
+fn fluence_estimate_from(light: &Light, receivers: Receivers, p: DVec3) -> (Rgb, f64) {
+    sampled_mean(light, receivers, |point| {
+        point.intensity_toward(p) / point.position().distance_squared(p)
+    })
+}
+
+/// The mean of `f` over light points, and the relative error allowed in comparing it with the
+/// truth. A light drawn from two numbers: a stratified 400×400 grid, allowed 1e-3. A sphere
+/// light sampled inside (three numbers): the grid converges slowly there (its weights are
+/// singular where a line through the point grazes the sphere: 6e-3 at 64³, 2e-3 at 256³), so
+/// 2¹⁸ camera samples' numbers from the renderer's own sampler, allowed four standard errors
+/// (from the samples' spread) and 1e-4.
+fn sampled_mean(light: &Light, receivers: Receivers, f: impl Fn(LightPoint) -> Rgb) -> (Rgb, f64) {
+    let third = std::cell::Cell::new(false);
+    sample_light(light, receivers, [0.5; 2], || {
+        third.set(true);
+        0.5
+    });
+    if !third.get() {
+        let n = 400;
+        let at = |i: usize| (i as f64 + 0.5) / n as f64;
+        let mut sum = Rgb::ZERO;
+        for i in 0..n {
+            for j in 0..n {
+                sum += f(sample_light(light, receivers, [at(i), at(j)], || 0.5));
+            }
         }
+        return (sum / (n * n) as f64, 1e-3);
     }
-    sum / (n * n) as f64
+    let n = 1u32 << 18;
+    let (mut sum, mut sum2) = (Rgb::ZERO, Rgb::ZERO);
+    for i in 0..n {
+        let mut sampler = crate::sampler::Sampler::new(11, 0, 0, i);
+        let u = sampler.next_2d();
+        let value = f(sample_light(light, receivers, u, || sampler.next_2d()[0]));
+        sum += value;
+        sum2 += value * value;
+    }
+    let mean = sum / f64::from(n);
+    let spread = (sum2 / f64::from(n) - mean * mean).max(Rgb::ZERO);
+    let standard_error = (spread / f64::from(n)).powf(0.5) / mean;
+    (mean, 4.0 * standard_error.max_element() + 1e-4)
 }
 
 /// The closed-form fluence rate at `p` of a sphere light (see below), `None` inside it.
@@ -90,11 +121,11 @@ fn sphere_light_points_estimate_the_fluence() {
             DVec3::new(0.0, 0.0, object_radius * 0.99),
             DVec3::new(-object_radius * 0.7, 0.5 * object_radius, 0.0),
         ] {
-            let estimate = fluence_estimate(&light, object, p);
+            let (estimate, allowed) = fluence_estimate(&light, object, p);
             let truth = sphere_fluence(light_center, light_radius, radiance, p).unwrap();
             let err = ((estimate - truth) / truth).abs().max_element();
             assert!(
-                err < 1e-3,
+                err < allowed,
                 "light {light_center} p {p}: {estimate} vs {truth} ({err})"
             );
         }
@@ -138,10 +169,10 @@ fn sphere_light_points_for_a_segment_estimate_the_fluence_anywhere() {
                 let Some(truth) = sphere_fluence(light_center, light_radius, radiance, p) else {
                     continue;
                 };
-                let estimate = fluence_estimate_from(&light, receivers, p);
+                let (estimate, allowed) = fluence_estimate_from(&light, receivers, p);
                 let err = ((estimate - truth) / truth).abs().max_element();
                 assert!(
-                    err < 1e-3,
+                    err < allowed,
                     "light {light_center} r {light_radius}, segment {origin}..{end}, p {p}: \
                      {estimate} vs {truth} ({err})"
                 );
@@ -179,7 +210,7 @@ fn quad_light_points_for_a_segment_estimate_the_fluence_anywhere() {
             DVec3::new(-0.7, -0.5, 0.4),
             DVec3::new(0.1, 0.8, 0.0),
         ] {
-            let estimate = fluence_estimate_from(&light, receivers, p);
+            let (estimate, _) = fluence_estimate_from(&light, receivers, p);
             let err = quad_fluence_error(estimate, (corner, edge_u, edge_v), radiance, p);
             assert!(
                 err < 2e-3,
@@ -223,7 +254,7 @@ fn quad_light_points_estimate_the_fluence() {
             DVec3::new(0.3, 0.9, 0.1),
             DVec3::new(-0.7, -0.5, 0.0),
         ] {
-            let estimate = fluence_estimate(&light, object, p);
+            let (estimate, _) = fluence_estimate(&light, object, p);
             let err = quad_fluence_error(estimate, (corner, edge_u, edge_v), radiance, p);
             assert!(err < 2e-3, "quad at {corner}, p {p}: {estimate} ({err})");
         }
@@ -255,7 +286,12 @@ fn quad_light_weights_are_bounded_by_the_area_share() {
     for _ in 0..20_000 {
         let LightPoint::Area {
             radiance_over_pdf, ..
-        } = sample_light(&light, Receivers::about_centre(object), sampler.next_2d())
+        } = sample_light(
+            &light,
+            Receivers::about_centre(object),
+            sampler.next_2d(),
+            || 0.5,
+        )
         else {
             panic!("a quad light gives area points");
         };
@@ -274,33 +310,43 @@ fn point_lights_are_used_as_they_are() {
         center: DVec3::ZERO,
         radius: 1.0,
     };
-    let point = sample_light(&light, Receivers::about_centre(object), [0.3, 0.7]);
+    let point = sample_light(&light, Receivers::about_centre(object), [0.3, 0.7], || 0.5);
     assert_eq!(point.position(), DVec3::new(1.0, 2.0, 3.0));
     assert_eq!(point.intensity_toward(DVec3::X), DVec3::splat(4.0));
 }
 
 /// The per-sample spread of the fluence estimate `I_eff(p) / ‖y − p‖²` over a stratified grid.
 fn fluence_spread(light: &Light, object: BoundingSphere, p: DVec3) -> f64 {
-    let n = 300;
+    let n = 64;
     let (mut sum, mut sum2) = (0.0, 0.0);
     for i in 0..n {
         for j in 0..n {
-            let u = [(i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64];
-            let point = sample_light(light, Receivers::about_centre(object), u);
-            let e = point.intensity_toward(p).x / point.position().distance_squared(p);
-            sum += e;
-            sum2 += e * e;
+            for k in 0..n {
+                let at = |i: usize| (i as f64 + 0.5) / n as f64;
+                let point = sample_light(
+                    light,
+                    Receivers::about_centre(object),
+                    [at(i), at(j)],
+                    || at(k),
+                );
+                let e = point.intensity_toward(p).x / point.position().distance_squared(p);
+                sum += e;
+                sum2 += e * e;
+            }
         }
     }
-    let mean = sum / (n * n) as f64;
-    (sum2 / (n * n) as f64 - mean * mean).max(0.0).sqrt() / mean
+    let count = (n * n * n) as f64;
+    let mean = sum / count;
+    (sum2 / count - mean * mean).max(0.0).sqrt() / mean
 }
 
 /// A small distant sphere light (radius 0.1 at distance 4 from a unit object) seen from the
-/// object's centre and from points on its lit side. Uniform sampling of the visible cap spreads
-/// each sample's estimate by 0.84 of the mean (the cosine at the light: measured, and
-/// `√(E[c²])/E[c] − 1` of the cap's cosine distribution); drawing by solid angle from the centre
-/// removes most of it.
+/// object's centre and from points on its lit side, sampled inside for receivers about the
+/// centre. Uniform sampling of the visible cap spreads each sample's estimate by 0.84 of the
+/// mean (the cosine at the light); inside, a receiver in the direction the points were drawn
+/// for gets only the spread of the line's direction across the light (0.04–0.06: the points are
+/// up to R/d off the axis), one 14° off it that of two chords' ratio (0.21 measured;
+/// docs/bench/ball-spread.py gives 0.23 at 15°).
 #[test]
 fn small_sphere_lights_are_sampled_nearly_like_point_lights() {
     let light = Light::Sphere {
@@ -313,20 +359,21 @@ fn small_sphere_lights_are_sampled_nearly_like_point_lights() {
         radius: 1.0,
     };
     let at = |deg: f64| DVec3::new(deg.to_radians().sin(), 0.0, deg.to_radians().cos());
-    for (p, bound) in [(DVec3::ZERO, 0.2), (at(0.0), 0.2), (at(60.0), 0.45)] {
+    for (p, bound) in [(DVec3::ZERO, 0.08), (at(0.0), 0.08), (at(60.0), 0.25)] {
         let spread = fluence_spread(&light, object, p);
         assert!(spread < bound, "receiver {p}: spread {spread} ≥ {bound}");
     }
 }
 
-/// No sample weighs more than the cap's share alone allows: `L_e / ((1 − share) · pdf_cap)`, so
-/// receivers the centre cannot see behind its horizon never get an unbounded weight.
+/// Sampled on its surface (the object's bounding sphere reaches the light), no sample weighs
+/// more than the cap's share alone allows: `L_e / ((1 − share) · pdf_cap)`, so receivers the
+/// centre cannot see behind its horizon never get an unbounded weight.
 #[test]
 fn sphere_light_weights_are_bounded_by_the_cap_share() {
     let radiance = DVec3::ONE;
     for (light_center, radius, object_radius) in [
-        (DVec3::new(0.0, 0.0, 4.0), 0.1, 1.0),
-        (DVec3::new(0.0, 2.5, 0.0), 1.0, 1.0),
+        (DVec3::new(0.0, 0.0, 1.9), 1.0, 1.0),
+        (DVec3::new(0.0, 1.4, 0.0), 0.5, 1.0),
         (DVec3::new(0.3, 0.0, 0.0), 1.0, 1.0),
     ] {
         let light = Light::Sphere {
@@ -357,7 +404,7 @@ fn sphere_light_weights_are_bounded_by_the_cap_share() {
                 let u = [(i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64];
                 let LightPoint::Area {
                     radiance_over_pdf, ..
-                } = sample_light(&light, Receivers::about_centre(object), u)
+                } = sample_light(&light, Receivers::about_centre(object), u, || 0.5)
                 else {
                     panic!("a sphere light gives area points");
                 };

@@ -75,7 +75,8 @@ impl Connection<'_> {
         stats.shadow_rays += 1;
         let normal = self.object.mesh.geometric_normal(triangle);
         let ray = Ray::leaving(p, normal, to_light, self.scene.scale());
-        let distance = (self.light.position() - ray.origin).dot(to_light);
+        let distance =
+            (self.light.position() - ray.origin).dot(to_light) - self.light.emitter_gap(-to_light);
         !self.scene.bvh().any_hit(ray.origin, to_light, distance)
     }
 
