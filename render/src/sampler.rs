@@ -10,7 +10,10 @@
 //! `N^{-1/2}`; pairs, and pixels, are independent of each other. The remaining 29 bits, and whole
 //! numbers of samples past the sequence's 2¹⁶, come from a strong 64-bit hash (splitmix64's
 //! finaliser in a chain) of the full key. Nothing is shared between pixels and there is no
-//! global state, so a failing pixel can be replayed alone.
+//! global state, so a failing pixel can be replayed alone. Where three numbers must be
+//! stratified together (a point inside a sphere light), [`Sampler::next_3d`] takes the first
+//! three dimensions of one pair's sequence, a (1, 3)-net, and uses up the next pair too, so the
+//! pairs after it stay aligned.
 
 /// The random numbers of one camera sample of one pixel.
 #[derive(Debug, Clone)]
@@ -53,13 +56,33 @@ impl Sampler {
 
     /// The next number in `[0, 1)` (53 bits), advancing the dimension counter.
     pub fn next_f64(&mut self) -> f64 {
-        let hash = mix(self.key ^ mix(self.dimension));
+        let dimension = self.dimension;
+        self.dimension += 1;
+        // Dimensions 2i and 2i + 1 are the first two of a sequence scrambled (and its points
+        // shuffled) for pair i alone.
+        self.number(dimension >> 1, (dimension & 1) as u32, dimension)
+    }
+
+    /// Two numbers in `[0, 1)`.
+    pub fn next_2d(&mut self) -> [f64; 2] {
+        [self.next_f64(), self.next_f64()]
+    }
+
+    /// Three numbers in `[0, 1)` stratified together: the first three dimensions of the sequence
+    /// of the next pair, which uses up two pairs (four dimensions; a pair left half-used is
+    /// skipped first).
+    pub fn next_3d(&mut self) -> [f64; 3] {
+        let first = self.dimension.next_multiple_of(2);
+        self.dimension = first + 4;
+        [0, 1, 2].map(|within| self.number(first >> 1, within, first + u64::from(within)))
+    }
+
+    /// Dimension `within` of point `sample` of the sequence scrambled for `pair`, its low bits
+    /// (and whole numbers past the sequence's length) from the hash of `dimension`.
+    fn number(&self, pair: u64, within: u32, dimension: u64) -> f64 {
+        let hash = mix(self.key ^ mix(dimension));
         let bits = if self.sample < SOBOL_SAMPLES {
-            // Dimensions 2i and 2i + 1 are the first two of a sequence scrambled (and its
-            // points shuffled) for pair i alone.
-            let pair_scramble =
-                (mix(u64::from(self.scramble) ^ (self.dimension >> 1)) >> 32) as u32;
-            let within = (self.dimension & 1) as u32;
+            let pair_scramble = (mix(u64::from(self.scramble) ^ pair) >> 32) as u32;
             // An f32 in [0, 1) from the sequence carries 24 significant bits at most.
             let sobol = sobol_burley::sample(self.sample, within, pair_scramble);
             let high = ((f64::from(sobol) * (1u64 << 24) as f64) as u64).min((1 << 24) - 1);
@@ -67,13 +90,7 @@ impl Sampler {
         } else {
             hash >> 11
         };
-        self.dimension += 1;
         bits as f64 * (1.0 / (1u64 << 53) as f64)
-    }
-
-    /// Two numbers in `[0, 1)`.
-    pub fn next_2d(&mut self) -> [f64; 2] {
-        [self.next_f64(), self.next_f64()]
     }
 
     /// How many numbers have been drawn.

@@ -89,3 +89,41 @@ fn numbers_beyond_the_sequence_are_uniform() {
         "mean {mean}"
     );
 }
+
+/// Over the first 64 samples of a pixel, `next_3d` puts exactly two points in each cell of the
+/// 4×4×2 grid and its permutations (boxes of volume 1/32: the scrambled Sobol sequence's first
+/// three dimensions form a (1, 6, 3)-net), whichever dimension it starts at; independent numbers
+/// would fill them so evenly with probability below 1e-9.
+#[test]
+fn three_numbers_are_stratified_together() {
+    for (x, y) in [(0, 0), (17, 3)] {
+        for skip in [0usize, 1, 2, 5] {
+            for (nx, ny, nz) in [
+                (4usize, 4usize, 2usize),
+                (4, 2, 4),
+                (2, 4, 4),
+                (8, 2, 2),
+                (2, 2, 8),
+            ] {
+                let mut cells = vec![0u32; 32];
+                for s in 0..64 {
+                    let mut r = Sampler::new(9, x, y, s);
+                    for _ in 0..skip {
+                        r.next_f64();
+                    }
+                    let [u, v, w] = r.next_3d();
+                    let (i, j, k) = (
+                        (u * nx as f64) as usize,
+                        (v * ny as f64) as usize,
+                        (w * nz as f64) as usize,
+                    );
+                    cells[(k * ny + j) * nx + i] += 1;
+                }
+                assert!(
+                    cells.iter().all(|&c| c == 2),
+                    "pixel ({x}, {y}), skip {skip}, grid {nx}x{ny}x{nz}: {cells:?}"
+                );
+            }
+        }
+    }
+}

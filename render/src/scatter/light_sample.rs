@@ -54,6 +54,7 @@ use glam::DVec3;
 use crate::Rgb;
 use crate::light::Light;
 use crate::light::rectangle::SphericalRectangle;
+use crate::sampler::Sampler;
 use crate::scatter::geometry::BoundingSphere;
 
 /// A point that lights a camera segment, for one camera sample.
@@ -202,15 +203,48 @@ impl Receivers {
     }
 }
 
+/// The uniform numbers in `[0, 1)` a light point is drawn from: a pair for most lights, three
+/// stratified together for a sphere light sampled inside. The renderer's [`Sampler`] gives them.
+pub trait LightNumbers {
+    fn pair(&mut self) -> [f64; 2];
+    fn triple(&mut self) -> [f64; 3];
+}
+
+impl LightNumbers for Sampler {
+    fn pair(&mut self) -> [f64; 2] {
+        self.next_2d()
+    }
+
+    fn triple(&mut self) -> [f64; 3] {
+        self.next_3d()
+    }
+}
+
 /// The light point of `light` for a receiver anywhere in `receivers.object` (its bounding
-/// sphere), from two uniform numbers in `[0, 1)`, and a third from `more` for a sphere light
-/// sampled inside (drawn only then).
+/// sphere). Every light uses up one pair of numbers (a point light ignores it) but a sphere
+/// light sampled inside, which takes a triple.
 pub fn sample_light(
     light: &Light,
     receivers: Receivers,
-    u: [f64; 2],
-    more: impl FnOnce() -> f64,
+    numbers: &mut impl LightNumbers,
 ) -> LightPoint {
+    if let Light::Sphere {
+        center,
+        radius,
+        radiance,
+    } = *light
+        && let Some(ball) = BallSampling::new(center, radius, receivers)
+    {
+        let position = ball.sample(numbers.triple());
+        let pdf = ball.pdf_volume(position);
+        return LightPoint::Ball {
+            position,
+            center,
+            radius,
+            radiance_over_pdf: if pdf > 0.0 { radiance / pdf } else { Rgb::ZERO },
+        };
+    }
+    let u = numbers.pair();
     match *light {
         Light::Point {
             position,
@@ -233,16 +267,6 @@ pub fn sample_light(
             radius,
             radiance,
         } => {
-            if let Some(ball) = BallSampling::new(center, radius, receivers) {
-                let position = ball.sample(u, more());
-                let pdf = ball.pdf_volume(position);
-                return LightPoint::Ball {
-                    position,
-                    center,
-                    radius,
-                    radiance_over_pdf: if pdf > 0.0 { radiance / pdf } else { Rgb::ZERO },
-                };
-            }
             let sphere = SphereSampling::new(center, radius, receivers);
             let (position, normal) = sphere.sample(u);
             // Every sample lies in the cap, whose share of the density is positive.
@@ -334,7 +358,8 @@ impl BallSampling {
         })
     }
 
-    fn sample(&self, u: [f64; 2], along: f64) -> DVec3 {
+    fn sample(&self, [u0, u1, along]: [f64; 3]) -> DVec3 {
+        let u = [u0, u1];
         let (k, u0) = pick(u[0], APEXES);
         let axis = self.axes[k];
         let rho = self.radius * u0.sqrt();

@@ -65,8 +65,7 @@ pub fn single_scatter(
     let mut total = Rgb::ZERO;
     let receivers = Receivers::of_segment(bounds, segment.origin, segment.dir, segment.length);
     for (j, light) in scene.lights().iter().enumerate() {
-        let u = sampler.next_2d();
-        let light = sample_light(light, receivers, u, || sampler.next_2d()[0]);
+        let light = sample_light(light, receivers, sampler);
         let light_medium = scene.light_medium(j);
         // A light in another medium would reach this one through two interfaces: not modelled
         // (the plan says so for every such light and object).

@@ -13,25 +13,56 @@ fn fluence_estimate_from(light: &Light, receivers: Receivers, p: DVec3) -> (Rgb,
     })
 }
 
+/// Given numbers: a pair is the first two.
+#[derive(Debug, Clone, Copy)]
+struct Fixed([f64; 3]);
+
+impl LightNumbers for Fixed {
+    fn pair(&mut self) -> [f64; 2] {
+        [self.0[0], self.0[1]]
+    }
+
+    fn triple(&mut self) -> [f64; 3] {
+        self.0
+    }
+}
+
+/// The light point drawn from the given numbers.
+fn draw(light: &Light, receivers: Receivers, u: [f64; 3]) -> LightPoint {
+    sample_light(light, receivers, &mut Fixed(u))
+}
+
+/// Whether the light takes three numbers for `receivers` (a sphere light sampled inside).
+fn takes_a_triple(light: &Light, receivers: Receivers) -> bool {
+    struct Probe(bool);
+    impl LightNumbers for Probe {
+        fn pair(&mut self) -> [f64; 2] {
+            [0.5; 2]
+        }
+        fn triple(&mut self) -> [f64; 3] {
+            self.0 = true;
+            [0.5; 3]
+        }
+    }
+    let mut probe = Probe(false);
+    sample_light(light, receivers, &mut probe);
+    probe.0
+}
+
 /// The mean of `f` over light points, and the relative error allowed in comparing it with the
-/// truth. A light drawn from two numbers: a stratified 400×400 grid, allowed 1e-3. A sphere
-/// light sampled inside (three numbers): the grid converges slowly there (its weights are
-/// singular where a line through the point grazes the sphere: 6e-3 at 64³, 2e-3 at 256³), so
-/// 2¹⁸ camera samples' numbers from the renderer's own sampler, allowed four standard errors
-/// (from the samples' spread) and 1e-4.
+/// truth. A light drawn from a pair: a stratified 400×400 grid, allowed 1e-3. A sphere light
+/// sampled inside (a triple): a grid converges slowly there (its weights are singular where a
+/// line through the point grazes the sphere: 6e-3 at 64³, 2e-3 at 256³), so 2¹⁸ samples'
+/// numbers from the renderer's own sampler, allowed four standard errors (from the samples'
+/// spread) and 1e-4.
 fn sampled_mean(light: &Light, receivers: Receivers, f: impl Fn(LightPoint) -> Rgb) -> (Rgb, f64) {
-    let third = std::cell::Cell::new(false);
-    sample_light(light, receivers, [0.5; 2], || {
-        third.set(true);
-        0.5
-    });
-    if !third.get() {
+    if !takes_a_triple(light, receivers) {
         let n = 400;
         let at = |i: usize| (i as f64 + 0.5) / n as f64;
         let mut sum = Rgb::ZERO;
         for i in 0..n {
             for j in 0..n {
-                sum += f(sample_light(light, receivers, [at(i), at(j)], || 0.5));
+                sum += f(draw(light, receivers, [at(i), at(j), 0.5]));
             }
         }
         return (sum / (n * n) as f64, 1e-3);
@@ -40,8 +71,7 @@ fn sampled_mean(light: &Light, receivers: Receivers, f: impl Fn(LightPoint) -> R
     let (mut sum, mut sum2) = (Rgb::ZERO, Rgb::ZERO);
     for i in 0..n {
         let mut sampler = crate::sampler::Sampler::new(11, 0, 0, i);
-        let u = sampler.next_2d();
-        let value = f(sample_light(light, receivers, u, || sampler.next_2d()[0]));
+        let value = f(sample_light(light, receivers, &mut sampler));
         sum += value;
         sum2 += value * value;
     }
@@ -286,12 +316,7 @@ fn quad_light_weights_are_bounded_by_the_area_share() {
     for _ in 0..20_000 {
         let LightPoint::Area {
             radiance_over_pdf, ..
-        } = sample_light(
-            &light,
-            Receivers::about_centre(object),
-            sampler.next_2d(),
-            || 0.5,
-        )
+        } = sample_light(&light, Receivers::about_centre(object), &mut sampler)
         else {
             panic!("a quad light gives area points");
         };
@@ -310,7 +335,7 @@ fn point_lights_are_used_as_they_are() {
         center: DVec3::ZERO,
         radius: 1.0,
     };
-    let point = sample_light(&light, Receivers::about_centre(object), [0.3, 0.7], || 0.5);
+    let point = draw(&light, Receivers::about_centre(object), [0.3, 0.7, 0.5]);
     assert_eq!(point.position(), DVec3::new(1.0, 2.0, 3.0));
     assert_eq!(point.intensity_toward(DVec3::X), DVec3::splat(4.0));
 }
@@ -323,11 +348,10 @@ fn fluence_spread(light: &Light, object: BoundingSphere, p: DVec3) -> f64 {
         for j in 0..n {
             for k in 0..n {
                 let at = |i: usize| (i as f64 + 0.5) / n as f64;
-                let point = sample_light(
+                let point = draw(
                     light,
                     Receivers::about_centre(object),
-                    [at(i), at(j)],
-                    || at(k),
+                    [at(i), at(j), at(k)],
                 );
                 let e = point.intensity_toward(p).x / point.position().distance_squared(p);
                 sum += e;
@@ -404,7 +428,7 @@ fn sphere_light_weights_are_bounded_by_the_cap_share() {
                 let u = [(i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64];
                 let LightPoint::Area {
                     radiance_over_pdf, ..
-                } = sample_light(&light, Receivers::about_centre(object), u, || 0.5)
+                } = draw(&light, Receivers::about_centre(object), [u[0], u[1], 0.5])
                 else {
                     panic!("a sphere light gives area points");
                 };
