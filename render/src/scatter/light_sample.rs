@@ -6,24 +6,21 @@
 //! intensity `I_eff(ω)` toward a receiver in direction `ω` from it (physics.md §1.1, "Area
 //! lights"); the methods only ever ask for `I_eff` of the path they solved.
 //!
-//! **A sphere light is sampled inside** (when the object's bounding sphere is clear of it). The
-//! light that reaches a receiver from a sphere of uniform radiance `L_e` is `L_e` along every
-//! line through the sphere; a line is as well named by any point `y` of it inside the sphere
-//! as by the point where it leaves, and in the volume `dV = dA⊥ ds` the chord's points share the
-//! line's measure. So a point `y` drawn with density `pdf_V` inside the sphere is a point light
-//! of intensity `I_eff(ω) = L_e / (pdf_V(y) · chord_y(ω))`, `chord_y(ω)` the length of the line
-//! through `y` along `ω` inside the sphere — for any path, refracted or not, since the pencil's
-//! cross-section times the geometric factor is constant along its straight part outside the
-//! object. The points are drawn uniformly on the disk through the centre across the direction
-//! `a` toward an apex (the camera segment's ends and middle, one third each,
-//! [`Receivers::of_segment`]), then uniformly along the chord along `a`: `pdf_V =
-//! mean_a 1/(π R² chord_y(a))`. For a path leaving toward an apex, `I_eff = π R² L_e` exactly,
-//! the equivalent point light; a path at an angle δ from it spreads by the ratio of two chords
-//! through `y`, 0.09 of the mean at δ = 5°, 0.17 at 10°, 0.23 at 15° — where drawing on the
-//! surface by solid angle from the apex (the cosine at the light in the weight, 0.9 of the
-//! samples) spreads by 0.16 at δ = 0, 0.20, 0.30 and 0.43 (`python3
-//! docs/bench/ball-spread.py`). The light leaves the sphere beyond `y`
-//! ([`LightPoint::emitter_gap`]), where a shadow ray toward `y` stops.
+//! **A sphere light is sampled inside** (when the object's bounding sphere is clear of it), and
+//! then it is exactly a point light of intensity `π R² L_e` at a random place. The light that
+//! reaches a receiver from a sphere of uniform radiance `L_e` is `L_e` along every line through
+//! the sphere, and a line is as well named by any of its points inside the sphere as by the
+//! point where it leaves. Along the lines of the pencil that reaches a receiver, `G(y) dV =
+//! dω ds` (the pencil's cross-section times the point-light geometric factor is constant along
+//! its straight part outside the object, refracted or not), so a point `y` of density `pdf_V`
+//! is a point light of intensity `L_e / ∫_ℓ pdf_V ds`, the density integrated along its line
+//! `ℓ` toward the receiver. The density here is the uniform distribution on the 3-sphere of
+//! radius `R` in four dimensions, seen in three, `1/(π² R² √(R² − |y − c|²))`, whose integral
+//! along *every* line through the sphere is `1/(π R²)`: the intensity is `π R² L_e` toward
+//! every receiver, whatever the path. No weight varies; the only noise the light adds is that of
+//! where its point falls (`Sampler::next_3d`: three numbers stratified together). The light
+//! leaves the sphere beyond `y` ([`LightPoint::emitter_gap`]), where a shadow ray toward `y`
+//! stops.
 //!
 //! **On the surface otherwise** (the object's bounding sphere reaches the light, so a receiver
 //! may be inside it): points from a mixture of densities (one-sample, weighted by the mixture's
@@ -70,16 +67,15 @@ pub enum LightPoint {
         radiance_over_pdf: Rgb,
     },
     /// A point `position` inside a sphere light (`center`, `radius`), standing for the light's
-    /// surface along every line through it: toward a receiver in direction `ω` it sends
-    /// `L_e / (pdf_V(y) · chord(ω))`, `chord(ω)` the length of the line through `y` along `ω`
-    /// inside the sphere, and the light leaves the sphere [`emitter_gap`](Self::emitter_gap)
-    /// beyond `y` (see the module doc).
+    /// surface along every line through it: toward any receiver outside the sphere it sends
+    /// `intensity`, and the light leaves the sphere [`emitter_gap`](Self::emitter_gap) beyond
+    /// `y` (see the module doc).
     Ball {
         position: DVec3,
         center: DVec3,
         radius: f64,
-        /// `L_e / pdf_V(y)`: radiance over the volume density of the sample.
-        radiance_over_pdf: Rgb,
+        /// `π R² L_e`, the same toward every receiver outside the sphere.
+        intensity: Rgb,
     },
     /// A directional light's far point (`Light::Directional`): its intensity toward a receiver
     /// is `irradiance · ‖p − position‖²`, so the irradiance it gives is the same everywhere.
@@ -98,7 +94,8 @@ impl LightPoint {
     }
 
     /// The intensity (W/sr) the point sends toward the receiver `p`: `I` for a point light,
-    /// `L_e · max(0, n_y·ω) / pdf_A` for an area sample (ω the unit direction from the light point
+    /// `π R² L_e` from inside a sphere light (to a receiver outside it), `L_e · max(0, n_y·ω) /
+    /// pdf_A` for a point on an area light's surface (ω the unit direction from the light point
     /// to `p`).
     pub fn intensity_toward(&self, p: DVec3) -> Rgb {
         match *self {
@@ -114,17 +111,15 @@ impl LightPoint {
                 radiance_over_pdf * normal.dot(toward).max(0.0)
             }
             LightPoint::Ball {
-                position,
                 center,
                 radius,
-                radiance_over_pdf,
+                intensity,
+                ..
             } => {
-                let Some(toward) = (p - position).try_normalize() else {
-                    return Rgb::ZERO;
-                };
-                match chord_through(position - center, radius, toward) {
-                    Some((back, ahead)) if back + ahead > 0.0 => radiance_over_pdf / (back + ahead),
-                    _ => Rgb::ZERO,
+                if p.distance_squared(center) > radius * radius {
+                    intensity
+                } else {
+                    Rgb::ZERO
                 }
             }
             LightPoint::Distant {
@@ -155,10 +150,8 @@ impl LightPoint {
             LightPoint::Point { intensity, .. } => intensity.max_element() <= 0.0,
             LightPoint::Area {
                 radiance_over_pdf, ..
-            }
-            | LightPoint::Ball {
-                radiance_over_pdf, ..
             } => radiance_over_pdf.max_element() <= 0.0,
+            LightPoint::Ball { intensity, .. } => intensity.max_element() <= 0.0,
             LightPoint::Distant { irradiance, .. } => irradiance.max_element() <= 0.0,
         }
     }
@@ -235,13 +228,11 @@ pub fn sample_light(
     } = *light
         && let Some(ball) = BallSampling::new(center, radius, receivers)
     {
-        let position = ball.sample(numbers.triple());
-        let pdf = ball.pdf_volume(position);
         return LightPoint::Ball {
-            position,
+            position: ball.sample(numbers.triple()),
             center,
             radius,
-            radiance_over_pdf: if pdf > 0.0 { radiance / pdf } else { Rgb::ZERO },
+            intensity: radiance * (std::f64::consts::PI * radius * radius),
         };
     }
     let u = numbers.pair();
@@ -327,15 +318,16 @@ pub fn sample_light(
     }
 }
 
-/// The density a sphere light's inside points are drawn from: for each apex in turn, uniform
-/// on the disk through the centre across the direction `a` toward it, then uniform along the
-/// chord through that point along `a` — density `1 / (π R² · chord_a(y))` — and the mixture of
-/// the apexes' densities.
+/// Where a sphere light's inside points are drawn: the uniform distribution on the 3-sphere of
+/// radius `R` in four dimensions, its fourth coordinate dropped, density
+/// `1 / (π² R² √(R² − |y − c|²))`. Along any line through the sphere at distance `ρ` from `c` it
+/// integrates to `∫ ds / (π² R² √(h² − s²)) = 1/(π R²)` (`h² = R² − ρ²`), the same for every
+/// line: so every line through the light is drawn alike, and the point is a point light of
+/// intensity `π R² L_e` (see the module doc).
 #[derive(Debug, Clone, Copy)]
 struct BallSampling {
     center: DVec3,
     radius: f64,
-    axes: [DVec3; APEXES],
 }
 
 impl BallSampling {
@@ -344,42 +336,20 @@ impl BallSampling {
     /// itself), where the light is sampled on its surface.
     fn new(center: DVec3, radius: f64, receivers: Receivers) -> Option<BallSampling> {
         let object = receivers.object;
-        if center.distance(object.center) <= (object.radius + radius) * (1.0 + 1e-9) {
-            return None;
-        }
-        let axes = receivers.apexes.map(|apex| (apex - center).try_normalize());
-        if axes.iter().any(Option::is_none) {
-            return None;
-        }
-        Some(BallSampling {
-            center,
-            radius,
-            axes: axes.map(|a| a.expect("checked above")),
-        })
+        (center.distance(object.center) > (object.radius + radius) * (1.0 + 1e-9))
+            .then_some(BallSampling { center, radius })
     }
 
-    fn sample(&self, [u0, u1, along]: [f64; 3]) -> DVec3 {
-        let u = [u0, u1];
-        let (k, u0) = pick(u[0], APEXES);
-        let axis = self.axes[k];
-        let rho = self.radius * u0.sqrt();
-        let phi = std::f64::consts::TAU * u[1];
-        let (s, t) = axis.any_orthonormal_pair();
-        let half = (self.radius * self.radius - rho * rho).max(0.0).sqrt();
-        self.center + rho * (phi.cos() * s + phi.sin() * t) + (2.0 * along - 1.0) * half * axis
-    }
-
-    /// The mixture's density per unit volume at `y` (inside the light).
-    fn pdf_volume(&self, y: DVec3) -> f64 {
-        let disk = std::f64::consts::PI * self.radius * self.radius;
-        let sum: f64 = self
-            .axes
-            .iter()
-            .filter_map(|&a| chord_through(y - self.center, self.radius, a))
-            .map(|(back, ahead)| 1.0 / (disk * (back + ahead)))
-            .filter(|p| p.is_finite())
-            .sum();
-        sum / APEXES as f64
+    /// Uniform on the 3-sphere in Hopf coordinates (`sin² η` uniform, two angles), projected.
+    fn sample(&self, [u0, u1, u2]: [f64; 3]) -> DVec3 {
+        let eta = u0.sqrt().asin();
+        let (a, b) = (std::f64::consts::TAU * u1, std::f64::consts::TAU * u2);
+        let offset = DVec3::new(
+            eta.cos() * a.cos(),
+            eta.cos() * a.sin(),
+            eta.sin() * b.cos(),
+        );
+        self.center + self.radius * offset
     }
 }
 
