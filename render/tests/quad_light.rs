@@ -2,19 +2,18 @@
 //! the whole renderer, a diffuse floor under it (Lambert's closed form), the light seen from the front and from behind, and single
 //! scattering at η = 1 against a brute-force integral over the segment and the rectangle.
 
+#[path = "support/segment.rs"]
+mod segment_support;
 mod support;
 
 use glam::DVec3;
+use segment_support::{segment_to_surface, single_scatter_mean};
 use serde_json::{Value, json};
 use spindle_common::scene as desc;
-use spindle_common::stats::RenderStats;
 use spindle_common::tile::TileRect;
 use spindle_render::light::{Light, SceneSphere};
-use spindle_render::ray::Ray;
-use spindle_render::sampler::Sampler;
-use spindle_render::scatter::{describe_plan, single_scatter};
-use spindle_render::segment::Segment;
-use spindle_render::{Assets, Rgb, Scene, render_tile};
+use spindle_render::scatter::describe_plan;
+use spindle_render::{Assets, Scene, render_tile};
 use support::box_obj;
 
 fn scene(objects: Value, lights: Value, camera: Value, spp: u32, assets: Assets) -> Scene {
@@ -209,29 +208,12 @@ fn single_scattering_at_eta_one_matches_brute_force() {
         DVec3::new(-0.6, 0.1, 0.05),
         DVec3::new(1.0, 0.2, -0.1).normalize(),
     );
-    let hit = scene.bvh().closest_hit(&Ray::new(origin, dir)).unwrap();
-    let segment = Segment {
-        origin,
-        dir,
-        length: hit.t,
-        object: 0,
-        throughput: Rgb::ONE,
-    };
+    let segment = segment_to_surface(&scene, origin, dir);
     // The light faces down (edge_u × edge_v is −y), toward the sphere.
     let normal = edge_u.cross(edge_v).normalize();
     assert!(normal.y < 0.0);
 
-    let n = 4096;
-    let (mut sum, mut sum2) = (0.0, 0.0);
-    let mut stats = RenderStats::default();
-    for s in 0..n {
-        let mut sampler = Sampler::new(17, 3, 5, s);
-        let v = single_scatter(&scene, &segment, &mut sampler, &mut stats).x;
-        sum += v;
-        sum2 += v * v;
-    }
-    let mean = sum / f64::from(n);
-    let stderr = ((sum2 / f64::from(n) - mean * mean).max(0.0) / f64::from(n)).sqrt();
+    let (mean, stderr) = single_scatter_mean(&scene, &segment, 4096, (17, 3, 5));
 
     let (ns, na) = (400, 400);
     let area = edge_u.length() * edge_v.length();

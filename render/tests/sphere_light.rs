@@ -5,16 +5,15 @@
 //! far enough), so the test also covers where a shadow ray toward such a point must stop: an
 //! opaque box hidden inside the light must not shade anything.
 
+#[path = "support/segment.rs"]
+mod segment_support;
 mod support;
 
 use glam::DVec3;
+use segment_support::{segment_to_surface, single_scatter_mean};
 use serde_json::json;
-use spindle_common::stats::RenderStats;
-use spindle_render::ray::Ray;
-use spindle_render::sampler::Sampler;
-use spindle_render::scatter::{describe_plan, single_scatter};
-use spindle_render::segment::Segment;
-use spindle_render::{Assets, Rgb, Scene};
+use spindle_render::scatter::describe_plan;
+use spindle_render::{Assets, Scene};
 use support::box_obj;
 
 /// The mean of 4096 camera samples, each with one light point, against the closed-form integral
@@ -49,26 +48,9 @@ fn single_scattering_at_eta_one_matches_the_closed_form_with_a_box_inside_the_li
         DVec3::new(-0.6, 0.1, 0.05),
         DVec3::new(1.0, 0.2, -0.1).normalize(),
     );
-    let hit = scene.bvh().closest_hit(&Ray::new(origin, dir)).unwrap();
-    let segment = Segment {
-        origin,
-        dir,
-        length: hit.t,
-        object: 0,
-        throughput: Rgb::ONE,
-    };
+    let segment = segment_to_surface(&scene, origin, dir);
 
-    let n = 4096;
-    let (mut sum, mut sum2) = (0.0, 0.0);
-    let mut stats = RenderStats::default();
-    for s in 0..n {
-        let mut sampler = Sampler::new(23, 1, 2, s);
-        let v = single_scatter(&scene, &segment, &mut sampler, &mut stats).x;
-        sum += v;
-        sum2 += v * v;
-    }
-    let mean = sum / f64::from(n);
-    let stderr = ((sum2 / f64::from(n) - mean * mean).max(0.0) / f64::from(n)).sqrt();
+    let (mean, stderr) = single_scatter_mean(&scene, &segment, 4096, (23, 1, 2));
 
     let steps = 2000;
     let mut integral = 0.0;
