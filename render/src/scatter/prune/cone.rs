@@ -14,6 +14,7 @@ use glam::DVec3;
 
 use crate::scatter::geometry::{BoundingSphere, NormalCone};
 use crate::scatter::prune::SegmentQuery;
+use crate::scatter::prune::beam::BeamBound;
 use crate::scatter::triangle::ends::DepthRange;
 
 /// Subdivision depth of the cone test in `t` (at most `2^depth` pieces are examined per end).
@@ -28,8 +29,22 @@ const FINE_SWEEP: f64 = 0.2;
 impl SegmentQuery {
     /// The cone test ([H15] §3.2.4, "shading-normal based test", App. B.2) for one triangle, given
     /// its bounding sphere and normal cone: `None` if no `t` of the range can have a solution on
-    /// the triangle, else the trimmed range that holds every solution.
+    /// the triangle, else the trimmed range that holds every solution. In closed form by the
+    /// [beam](super::beam) where that bounds the solutions, else by bisection.
     pub fn cone_trim(&self, sphere: BoundingSphere, normals: NormalCone) -> Option<DepthRange> {
+        match self.beam(sphere, normals) {
+            BeamBound::Empty => None,
+            BeamBound::Beam(beam) => beam.trim(self),
+            BeamBound::Unbounded => self.bisected_trim(sphere, normals),
+        }
+    }
+
+    /// [`cone_trim`](Self::cone_trim) by bisection of the range alone.
+    pub(super) fn bisected_trim(
+        &self,
+        sphere: BoundingSphere,
+        normals: NormalCone,
+    ) -> Option<DepthRange> {
         let test = ConeTest::new(self, sphere, normals);
         // The whole range's verdict starts both searches (tested once).
         let whole = test.piece(self.range.lo, self.range.hi);
@@ -44,8 +59,18 @@ impl SegmentQuery {
     }
 
     /// The cone test without the trimming: `false` only if no `t` of the range can have a
-    /// solution on the triangle (half the work of [`cone_trim`](Self::cone_trim) when kept).
+    /// solution on the triangle (by bisection, half the work of [`cone_trim`](Self::cone_trim)
+    /// when kept).
     pub fn cone_may_contain(&self, sphere: BoundingSphere, normals: NormalCone) -> bool {
+        match self.beam(sphere, normals) {
+            BeamBound::Empty => false,
+            BeamBound::Beam(beam) => beam.trim(self).is_some(),
+            BeamBound::Unbounded => self.bisected_may_contain(sphere, normals),
+        }
+    }
+
+    /// [`cone_may_contain`](Self::cone_may_contain) by bisection of the range alone.
+    pub(super) fn bisected_may_contain(&self, sphere: BoundingSphere, normals: NormalCone) -> bool {
         ConeTest::new(self, sphere, normals).any_kept(self.range.lo, self.range.hi, CONE_DEPTH)
     }
 }

@@ -16,6 +16,7 @@ use spindle_common::stats::RenderStats;
 
 use crate::scatter::geometry::facing_bounds;
 use crate::scatter::prune::SegmentQuery;
+use crate::scatter::prune::beam::BeamBound;
 use crate::scatter::triangle::ends::DepthRange;
 use crate::scene::Object;
 
@@ -56,29 +57,39 @@ pub fn for_each_candidate(
         stats.bvh_nodes_visited += 1;
         let mut node_query = query.with_range(range);
         let bounds = object.bounds.node(node);
-        if pruning.spindle && !node_query.spindle_may_contain(bounds.sphere) {
+        let children = object.bvh.children(node);
+        let beam = match (pruning.cone, bounds.cone) {
+            (true, Some(cone)) => node_query.beam(bounds.sphere, cone),
+            _ => BeamBound::Unbounded,
+        };
+        // Where the beam bounds the solutions it culls more than the spindle test, which is
+        // then skipped (docs/benchmarks.md, ninth round).
+        if matches!(beam, BeamBound::Unbounded)
+            && pruning.spindle
+            && !node_query.spindle_may_contain(bounds.sphere)
+        {
             stats.nodes_culled_spindle += 1;
             continue;
         }
-        let children = object.bvh.children(node);
-        if pruning.cone
-            && let Some(cone) = bounds.cone
-        {
-            // An inner node's trimmed range is what its children start from; a leaf's would only
-            // narrow the ranges its triangles are culled on, which saves less than the trimming
-            // (a bisection from both ends) costs, so a leaf is only tested.
-            let kept = match children {
-                Some(_) => node_query.cone_trim(bounds.sphere, cone),
+        // An inner node's trimmed range is what its children start from; a leaf's would only
+        // narrow the ranges its triangles are culled on, which saves less than the bisection's
+        // trimming (from both ends) costs, so a leaf is only tested there.
+        let kept = match (beam, bounds.cone) {
+            (BeamBound::Empty, _) => None,
+            (BeamBound::Beam(beam), _) => beam.trim(&node_query),
+            (BeamBound::Unbounded, Some(cone)) if pruning.cone => match children {
+                Some(_) => node_query.bisected_trim(bounds.sphere, cone),
                 None => node_query
-                    .cone_may_contain(bounds.sphere, cone)
+                    .bisected_may_contain(bounds.sphere, cone)
                     .then_some(node_query.range),
-            };
-            match kept {
-                Some(range) => node_query = node_query.with_range(range),
-                None => {
-                    stats.nodes_culled_cone += 1;
-                    continue;
-                }
+            },
+            (BeamBound::Unbounded, _) => Some(node_query.range),
+        };
+        match kept {
+            Some(range) => node_query = node_query.with_range(range),
+            None => {
+                stats.nodes_culled_cone += 1;
+                continue;
             }
         }
         if let Some([left, right]) = children {

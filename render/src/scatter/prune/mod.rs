@@ -12,6 +12,7 @@
 //! a small angular margin covers rounding (node boxes are f32). `tests` prove it on paths built
 //! to be valid, including grazing ones.
 
+mod beam;
 pub mod bounds;
 mod cone;
 pub mod descent;
