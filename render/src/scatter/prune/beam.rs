@@ -130,6 +130,12 @@ pub(super) struct Beam {
 }
 
 impl Beam {
+    /// The beam's half-angle `α` and axis.
+    #[cfg(test)]
+    pub(super) fn cone(&self) -> (f64, DVec3) {
+        (self.sin.atan2(self.cos), self.axis)
+    }
+
     /// The part of the query's range whose camera points lie in the beam (widened by rounding
     /// margins), or `None` if none does.
     pub(super) fn trim(&self, query: &SegmentQuery) -> Option<DepthRange> {

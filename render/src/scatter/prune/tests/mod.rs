@@ -2,6 +2,7 @@
 //! construction, including grazing exits) are never discarded by the tests, the bounds or the
 //! descent; and the tests do cull what cannot refract.
 
+mod beam;
 mod bounds;
 mod cull;
 mod descent;
