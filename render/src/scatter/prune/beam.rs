@@ -57,7 +57,8 @@ impl BeamBound {
             return BeamBound::Unbounded;
         }
         let light = to_light / d_light;
-        let theta_l = (sphere.radius / d_light).asin();
+        // sin θ_L, the light cone's half-angle seen from the sphere.
+        let sin_l = sphere.radius / d_light;
         // The central ray: η ω_V + ω_L = −μ N with |ω_V| = 1, so μ = R − c with R = √(c² + m²),
         // c = N·ω_L, m² = η² − 1 (μ = m²/(R + c), without cancellation for c ≥ 0).
         let m2 = eta * eta - 1.0;
@@ -75,7 +76,8 @@ impl BeamBound {
         // η² ω_V(N)·ω_V(A) = μ(c)(μ0 N·A + c) + μ0 c0 + 1 ≥ m² h(c) + μ0 c0 + 1 with
         // h(c) = (μ0 cos θ_N + c)/(R(c) + c), which rises then falls in c, so is least at an end
         // of c's range. The light's own spread turns ω_V by at most θ_L/η (the stretch of
-        // ω_L ↦ ω_V is at most 1/η for η > 1).
+        // ω_L ↦ ω_V is at most 1/η for η > 1). No trigonometry: the angles are summed as
+        // rotations, from their sines and cosines.
         let (cos_n, sin_n) = (normals.cos_wide, normals.sin_wide);
         let sin_gamma = normals.axis.cross(light).length();
         let c_lo = if c0 <= -cos_n {
@@ -90,7 +92,7 @@ impl BeamBound {
         };
         // A solution has the light in front of its normal (c_L > 0 at P, so N·û_L > −sin θ_L):
         // the normals facing away from the light need no bound, and if all do, nothing is kept.
-        let facing = -(sphere.radius / d_light) - WIDEN;
+        let facing = -sin_l - WIDEN;
         if c_hi < facing {
             return BeamBound::Empty;
         }
@@ -101,9 +103,16 @@ impl BeamBound {
             (k + c) / (r + c)
         };
         let cos_dev = (m2 * h(c_lo.max(-1.0)).min(h(c_hi.min(1.0))) + mu0 * c0 + 1.0) / (eta * eta);
-        let alpha_n = cos_dev.clamp(-1.0, 1.0).acos();
-        let alpha = alpha_n + theta_l / eta + 2.0 * WIDEN;
-        let narrow = alpha < std::f64::consts::FRAC_PI_2 - 1e-3;
+        let cos_dev = cos_dev.clamp(-1.0, 1.0);
+        let sin_dev = (1.0 - cos_dev * cos_dev).sqrt();
+        // An angle x ≥ θ_L/η: sin x = tan θ_L / η ≥ θ_L/η ≥ sin(θ_L/η).
+        let sin_x = (sin_l / (eta * (1.0 - sin_l * sin_l).sqrt())).min(1.0);
+        let cos_x = (1.0 - sin_x * sin_x).sqrt();
+        let (sin_a, cos_a) = rotate((sin_dev, cos_dev), (sin_x, cos_x));
+        // The margin covers the rounding of sin_dev near 0 (≈ 5e-8 there) and of the sums.
+        let (sin_a, cos_a) = rotate((sin_a, cos_a), (2.0 * WIDEN, 1.0));
+        // α below a right angle by a margin; NaN bounds nothing.
+        let narrow = cos_a > 1e-3 && sin_a >= 0.0;
         if !narrow {
             return BeamBound::Unbounded;
         }
@@ -111,10 +120,15 @@ impl BeamBound {
             center: sphere.center,
             radius: sphere.radius * (1.0 + WIDEN),
             axis,
-            sin: alpha.sin(),
-            cos: alpha.cos(),
+            sin: sin_a,
+            cos: cos_a,
         })
     }
+}
+
+/// The sine and cosine of the sum of two angles, from theirs.
+fn rotate((sin_a, cos_a): (f64, f64), (sin_b, cos_b): (f64, f64)) -> (f64, f64) {
+    (sin_a * cos_b + cos_a * sin_b, cos_a * cos_b - sin_a * sin_b)
 }
 
 /// The camera points that may see a solution on a sphere of surface points: the cone of
