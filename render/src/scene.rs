@@ -24,6 +24,7 @@ use crate::medium::Medium;
 use crate::mesh::{MeshReport, TriangleMesh};
 use crate::obj::parse_obj_with;
 use crate::procedural::{MAX_SUBDIVISIONS, bumpy_sphere, icosphere};
+use crate::scatter::prune::beam_table::BeamTable;
 use crate::scatter::prune::bounds::PruneBounds;
 use crate::transform::Transform;
 
@@ -95,6 +96,11 @@ pub struct SceneSummary {
 /// The largest `max_depth` accepted (a camera path recurses once per bounce).
 pub const MAX_DEPTH_LIMIT: u32 = 256;
 
+/// At most this many point lights have their beams tabled for every dielectric object (a table
+/// costs 80 bytes per BVH node and per triangle); the descents of other lights compute their
+/// beams node by node, to the same bits.
+pub const BEAM_TABLE_BUDGET: usize = 2;
+
 /// A scene ready to render.
 #[derive(Debug, Clone)]
 pub struct Scene {
@@ -114,6 +120,8 @@ pub struct Scene {
     light_media: Vec<Option<usize>>,
     /// Objects and lights whose light would cross a second dielectric interface.
     second_interfaces: Vec<SecondInterface>,
+    /// `beam_tables[o][j]`: object `o`'s beams for point light `j` (see [`beam_tables`]).
+    beam_tables: Vec<Vec<Option<BeamTable>>>,
     warnings: Vec<String>,
 }
 
@@ -236,6 +244,8 @@ impl Scene {
             ));
         }
 
+        let beam_tables = beam_tables(&objects, &lights, &light_media);
+
         Ok(Scene {
             objects,
             bvh,
@@ -249,6 +259,7 @@ impl Scene {
             camera_medium,
             light_media,
             second_interfaces,
+            beam_tables,
             warnings,
         })
     }
@@ -270,6 +281,11 @@ impl Scene {
 
     pub fn lights(&self) -> &[Light] {
         &self.lights
+    }
+
+    /// Object `object`'s beams for light `light`, if it is a point light they were tabled for.
+    pub fn beam_table(&self, object: usize, light: usize) -> Option<&BeamTable> {
+        self.beam_tables.get(object)?.get(light)?.as_ref()
     }
 
     pub fn camera(&self) -> &Camera {
@@ -623,4 +639,36 @@ fn segment_crosses_triangle(a: DVec3, b: DVec3, [p, q, r]: [DVec3; 3]) -> bool {
     [(p, q), (q, r), (r, p)]
         .iter()
         .all(|&(s, t)| (t - s).cross(x - s).dot(n) >= 0.0)
+}
+
+/// The beam tables of every dielectric object for every point light outside all media (the
+/// lights whose descents use them; a sphere or area light's point moves from sample to sample),
+/// the first [`BEAM_TABLE_BUDGET`] such lights only.
+fn beam_tables(
+    objects: &[Object],
+    lights: &[Light],
+    light_media: &[Option<usize>],
+) -> Vec<Vec<Option<BeamTable>>> {
+    let mut budget = BEAM_TABLE_BUDGET;
+    let chosen: Vec<Option<DVec3>> = lights
+        .iter()
+        .zip(light_media)
+        .map(|(light, medium)| match (light, medium) {
+            (Light::Point { position, .. }, None) if budget > 0 => {
+                budget -= 1;
+                Some(*position)
+            }
+            _ => None,
+        })
+        .collect();
+    objects
+        .iter()
+        .map(|o| match o.material {
+            Material::Dielectric(d) => chosen
+                .iter()
+                .map(|light| light.map(|l| BeamTable::build(&o.bounds, l, d.eta)))
+                .collect(),
+            _ => Vec::new(),
+        })
+        .collect()
 }

@@ -84,6 +84,7 @@ pub fn single_scatter(
             },
             medium,
             light,
+            beam_table: scene.beam_table(segment.object, j),
         };
         let length = segment.length;
         if light_medium == Some(segment.object) {

@@ -17,6 +17,7 @@ use crate::Rgb;
 use crate::medium::Medium;
 use crate::ray::{OFFSET_SCALE, Ray};
 use crate::scatter::light_sample::LightPoint;
+use crate::scatter::prune::beam_table::BeamTable;
 use crate::scatter::triangle::contribution::path_contribution;
 use crate::scatter::triangle::ends::PathEnds;
 use crate::scatter::triangle::solve::RefractionPath;
@@ -35,6 +36,9 @@ pub struct Connection<'a> {
     pub ends: PathEnds,
     pub medium: Medium,
     pub light: LightPoint,
+    /// The object's beams for this light point, if the scene tabled them (see
+    /// [`BeamTable`]); [`Connection::beams`] checks they serve `ends`.
+    pub beam_table: Option<&'a BeamTable>,
 }
 
 impl Connection<'_> {

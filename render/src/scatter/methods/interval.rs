@@ -42,9 +42,11 @@ pub fn estimate(
     // Each edge is scanned once for this query and shared by its two triangles.
     let mut scans = EdgeScans::default();
     let mesh = &connection.object.mesh;
+    let beams = connection.beams();
     for_each_candidate(
         connection.object,
         &query,
+        beams,
         &settings.pruning,
         stack,
         stats,
@@ -60,7 +62,7 @@ pub fn estimate(
             let may_hold_at = |t: f64| match bounds.cone {
                 Some(cone) if settings.pruning.cone => query
                     .with_range(DepthRange { lo: t, hi: t })
-                    .cone_may_contain(bounds.sphere, cone),
+                    .triangle_may_contain(beams, candidate.slot, bounds.sphere, cone),
                 _ => true,
             };
             let intervals = triangle_intervals_with(

@@ -25,6 +25,7 @@ use crate::Rgb;
 use crate::sampler::Sampler;
 use crate::scatter::methods::connect::Connection;
 use crate::scatter::prune::SegmentQuery;
+use crate::scatter::prune::beam_table::Beams;
 use crate::scatter::triangle::ends::{DepthRange, PathEnds};
 use crate::scatter::triangle::patch::TrianglePatch;
 
@@ -35,6 +36,11 @@ impl Connection<'_> {
             ends: self.ends,
             range,
         }
+    }
+
+    /// Where the descents of this connection take their beams from.
+    pub fn beams(&self) -> Beams<'_> {
+        Beams::for_ends(self.beam_table, &self.ends)
     }
 
     /// The solver's view of the object's triangle `triangle`; `None` if it is degenerate.

@@ -54,6 +54,7 @@ pub fn estimate(
         for_each_candidate(
             connection.object,
             &query,
+            connection.beams(),
             &settings.pruning,
             stack,
             stats,

@@ -41,15 +41,15 @@ pub(super) enum BeamBound {
 impl SegmentQuery {
     /// The beam of the sphere and normal cone for the query's light and η (see the module doc).
     pub(super) fn beam(&self, sphere: BoundingSphere, normals: NormalCone) -> BeamBound {
-        BeamBound::of(self, sphere, normals)
+        BeamBound::of(self.ends.light, self.ends.eta, sphere, normals)
     }
 }
 
 impl BeamBound {
-    /// The beam of the sphere and normal cone for the query's light and η.
-    fn of(query: &SegmentQuery, sphere: BoundingSphere, normals: NormalCone) -> Self {
-        let eta = query.ends.eta;
-        let to_light = query.ends.light - sphere.center;
+    /// The beam of the sphere and normal cone for the light point `light` and η: it depends on
+    /// neither the camera segment nor the range.
+    pub(super) fn of(light: DVec3, eta: f64, sphere: BoundingSphere, normals: NormalCone) -> Self {
+        let to_light = light - sphere.center;
         let d_light = to_light.length();
         // (NaN bounds nothing.)
         let bounded = eta > 1.0 + MIN_ETA_EXCESS && d_light > sphere.radius;

@@ -141,6 +141,16 @@ impl PruneBounds {
     pub fn node(&self, index: u32) -> &NodeBounds {
         &self.nodes[index as usize]
     }
+
+    /// Every node's bounds, by node index.
+    pub fn nodes(&self) -> &[NodeBounds] {
+        &self.nodes
+    }
+
+    /// Every triangle's bounds, by leaf slot.
+    pub fn triangles(&self) -> &[TriangleBounds] {
+        &self.triangles
+    }
 }
 
 /// The cone of every vertex normal of the given triangles: axis along their normalised sum,

@@ -15,6 +15,7 @@ use glam::DVec3;
 use crate::scatter::geometry::{BoundingSphere, NormalCone};
 use crate::scatter::prune::SegmentQuery;
 use crate::scatter::prune::beam::BeamBound;
+use crate::scatter::prune::beam_table::Beams;
 use crate::scatter::triangle::ends::DepthRange;
 
 /// Subdivision depth of the cone test in `t` (at most `2^depth` pieces are examined per end).
@@ -62,7 +63,31 @@ impl SegmentQuery {
     /// solution on the triangle (by bisection, half the work of [`cone_trim`](Self::cone_trim)
     /// when kept).
     pub fn cone_may_contain(&self, sphere: BoundingSphere, normals: NormalCone) -> bool {
-        match self.beam(sphere, normals) {
+        self.cone_may_contain_given(self.beam(sphere, normals), sphere, normals)
+    }
+
+    /// [`cone_may_contain`](Self::cone_may_contain) for the triangle in leaf slot `slot`, whose
+    /// sphere and normal cone are given, with its beam taken from `beams`.
+    pub fn triangle_may_contain(
+        &self,
+        beams: Beams<'_>,
+        slot: u32,
+        sphere: BoundingSphere,
+        normals: NormalCone,
+    ) -> bool {
+        let beam = beams.triangle_at_slot(&self.ends, slot, sphere, normals);
+        self.cone_may_contain_given(beam, sphere, normals)
+    }
+
+    /// [`cone_may_contain`](Self::cone_may_contain) with the sphere and cone's beam for the
+    /// query's light and η already known.
+    fn cone_may_contain_given(
+        &self,
+        beam: BeamBound,
+        sphere: BoundingSphere,
+        normals: NormalCone,
+    ) -> bool {
+        match beam {
             BeamBound::Empty => false,
             BeamBound::Beam(beam) => beam.trim(self).is_some(),
             BeamBound::Unbounded => self.bisected_may_contain(sphere, normals),

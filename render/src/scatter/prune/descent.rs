@@ -17,6 +17,7 @@ use spindle_common::stats::RenderStats;
 use crate::scatter::geometry::facing_bounds;
 use crate::scatter::prune::SegmentQuery;
 use crate::scatter::prune::beam::BeamBound;
+use crate::scatter::prune::beam_table::Beams;
 use crate::scatter::triangle::ends::DepthRange;
 use crate::scene::Object;
 
@@ -37,10 +38,11 @@ pub struct Candidate {
 pub struct DescentStack(Vec<(u32, DepthRange)>);
 
 /// Calls `visit` for every candidate triangle of `object` for the query (segment range and light
-/// point), with the pruning stages `pruning` enabled.
+/// point), with the pruning stages `pruning` enabled and the beams from `beams`.
 pub fn for_each_candidate(
     object: &Object,
     query: &SegmentQuery,
+    beams: Beams<'_>,
     pruning: &Pruning,
     stack: &mut DescentStack,
     stats: &mut RenderStats,
@@ -59,7 +61,7 @@ pub fn for_each_candidate(
         let bounds = object.bounds.node(node);
         let children = object.bvh.children(node);
         let beam = match (pruning.cone, bounds.cone) {
-            (true, Some(cone)) => node_query.beam(bounds.sphere, cone),
+            (true, Some(cone)) => beams.node(&query.ends, node, bounds.sphere, cone),
             _ => BeamBound::Unbounded,
         };
         // Where the beam bounds the solutions it culls more than the spindle test, which is
@@ -141,7 +143,7 @@ pub fn for_each_candidate(
             });
             if pruning.cone
                 && let Some(cone) = bounds.cone
-                && !culling.cone_may_contain(bounds.sphere, cone)
+                && !culling.triangle_may_contain(beams, slot, bounds.sphere, cone)
             {
                 stats.triangles_culled_cone += 1;
                 continue;

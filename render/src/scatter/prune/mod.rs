@@ -13,6 +13,7 @@
 //! to be valid, including grazing ones.
 
 mod beam;
+pub mod beam_table;
 pub mod bounds;
 mod cone;
 pub mod descent;

@@ -9,6 +9,8 @@ use crate::bvh::Bvh;
 use crate::medium::{Medium, PhaseFunction};
 use crate::procedural::bumpy_sphere;
 use crate::scatter::prune::SegmentQuery;
+use crate::scatter::prune::beam::BeamBound;
+use crate::scatter::prune::beam_table::{BeamTable, Beams};
 use crate::scatter::prune::bounds::PruneBounds;
 use crate::scatter::prune::descent::{DescentStack, for_each_candidate};
 use crate::scatter::triangle::ends::{DepthRange, PathEnds};
@@ -58,7 +60,7 @@ fn descent_keeps_every_triangle_with_a_valid_path() {
     let mut state = 11;
     let mut stack = DescentStack::default();
     let mut stats = RenderStats::default();
-    let mut checked = 0;
+    let (mut checked, mut tabled_checked) = (0, 0);
     for _ in 0..3000 {
         let triangle = (uniform(&mut state) * mesh.triangle_count() as f64) as usize;
         let (mut a, mut b) = (uniform(&mut state), uniform(&mut state));
@@ -97,9 +99,11 @@ fn descent_keeps_every_triangle_with_a_valid_path() {
         };
         let mut found = false;
         let before = stats;
+        let mut candidates = Vec::new();
         for_each_candidate(
             &object,
             &query,
+            Beams::computed(),
             &Pruning::default(),
             &mut stack,
             &mut stats,
@@ -108,6 +112,7 @@ fn descent_keeps_every_triangle_with_a_valid_path() {
                     assert!(c.range.contains(t_v), "{c:?} misses t = {t_v}");
                     found = true;
                 }
+                candidates.push(c);
             },
         );
         assert!(
@@ -115,6 +120,24 @@ fn descent_keeps_every_triangle_with_a_valid_path() {
             "triangle {triangle} culled for a valid path: {query:?}"
         );
         assert!(stats.bvh_nodes_visited > before.bvh_nodes_visited);
+        // One query in ten again with the beams from a table built for its light: the same
+        // candidates, with the same ranges.
+        if checked % 10 == 0 {
+            let table = BeamTable::build(&object.bounds, light, eta);
+            let beams = Beams::for_ends(Some(&table), &query.ends);
+            let mut tabled = Vec::new();
+            for_each_candidate(
+                &object,
+                &query,
+                beams,
+                &Pruning::default(),
+                &mut stack,
+                &mut RenderStats::default(),
+                |c, _| tabled.push(c),
+            );
+            assert_eq!(tabled, candidates, "{query:?}");
+            tabled_checked += 1;
+        }
         checked += 1;
     }
     let nodes = object.bvh.nodes().len() as u64;
@@ -126,7 +149,7 @@ fn descent_keeps_every_triangle_with_a_valid_path() {
         stats.triangles_tested as f64 / checked as f64,
         stats.triangles_culled_cone as f64 / checked as f64,
     );
-    assert!(checked > 1000);
+    assert!(checked > 1000 && tabled_checked > 100);
     assert!(stats.nodes_culled_spindle > 0 && stats.triangles_culled_cone > 0);
     assert!(stats.triangles_tested < checked * mesh.triangle_count() as u64);
 }
@@ -154,6 +177,7 @@ fn descent_without_pruning_yields_every_triangle() {
     for_each_candidate(
         &object,
         &query,
+        Beams::computed(),
         &off,
         &mut DescentStack::default(),
         &mut stats,
@@ -164,4 +188,55 @@ fn descent_without_pruning_yields_every_triangle() {
     );
     assert!(seen.iter().all(|&n| n == 1));
     assert_eq!(stats.triangles_tested, object.mesh.triangle_count() as u64);
+}
+
+/// A beam table serves only the light point and η it was built for: a query with another light
+/// or η computes its beams (a table used for another light would cull that light's solutions).
+#[test]
+fn a_beam_table_serves_only_its_own_light_and_eta() {
+    let object = object();
+    let light = DVec3::new(0.3, -0.2, 4.0);
+    let table = BeamTable::build(&object.bounds, light, 1.5);
+    assert_eq!(
+        table.len(),
+        object.bounds.nodes().len() + object.bounds.triangles().len()
+    );
+    let ends = |light, eta| PathEnds {
+        origin: DVec3::new(0.0, 0.0, -0.5),
+        dir: DVec3::Z,
+        light,
+        eta,
+    };
+    assert!(table.serves(&ends(light, 1.5)));
+    assert!(!table.serves(&ends(light + DVec3::splat(1e-12), 1.5)));
+    assert!(!table.serves(&ends(light, 1.5 + 1e-12)));
+    // Built for a light at the far side, the table's beams differ from a near-side light's;
+    // `for_ends` does not hand the table over to that light's queries.
+    let near = DVec3::new(0.0, 0.0, -4.0);
+    let differs = (0..object.bounds.nodes().len() as u32).any(|i| {
+        let node = object.bounds.node(i);
+        node.cone
+            .is_some_and(|cone| table.node(i) != BeamBound::of(near, 1.5, node.sphere, cone))
+    });
+    assert!(differs);
+    let query = SegmentQuery {
+        ends: ends(near, 1.5),
+        range: DepthRange { lo: 0.0, hi: 1.0 },
+    };
+    let count = |beams| {
+        let mut n = 0;
+        for_each_candidate(
+            &object,
+            &query,
+            beams,
+            &Pruning::default(),
+            &mut DescentStack::default(),
+            &mut RenderStats::default(),
+            |_, _| n += 1,
+        );
+        n
+    };
+    let computed = count(Beams::computed());
+    assert!(computed > 0);
+    assert_eq!(count(Beams::for_ends(Some(&table), &query.ends)), computed);
 }
