@@ -127,8 +127,9 @@ pub fn newton(
 ) -> (Option<Converged>, u32) {
     let (mut u, mut v) = start;
     let mut evaluations = 1;
-    let eval = |u: f64, v: f64| {
-        let x = slice.at(u, v);
+    // A residual is some 300 bytes, so it is moved only when a step is accepted (moving it costs
+    // a good part of an evaluation).
+    let eval = |x: CurvePoint| {
         if !(x.a > BARYCENTRIC_ESCAPE.0
             && x.a < BARYCENTRIC_ESCAPE.1
             && x.b > BARYCENTRIC_ESCAPE.0
@@ -136,9 +137,10 @@ pub fn newton(
         {
             return None;
         }
-        patch.residual(ends, x.t, x.a, x.b).map(|r| (x, r))
+        patch.residual(ends, x.t, x.a, x.b)
     };
-    let Some((mut x, mut r)) = eval(u, v) else {
+    let mut x = slice.at(u, v);
+    let Some(mut r) = eval(x) else {
         return (None, evaluations);
     };
     let mut norm = r.f.length();
@@ -209,20 +211,21 @@ pub fn newton(
             dv *= scale;
 
             evaluations += 1;
-            if let Some((x_new, r_new)) = eval(u + du, v + dv) {
+            let x_new = slice.at(u + du, v + dv);
+            if let Some(r_new) = eval(x_new) {
                 let merit_new = r_new.scaled().length();
                 if merit_new < merit {
-                    accepted = Some((x_new, r_new, merit_new, du, dv));
+                    x = x_new;
+                    r = r_new;
+                    accepted = Some((merit_new, du, dv));
                     break;
                 }
             }
         }
         match accepted {
-            Some((x_new, r_new, merit_new, du, dv)) => {
+            Some((merit_new, du, dv)) => {
                 u += du;
                 v += dv;
-                x = x_new;
-                r = r_new;
                 norm = r.f.length();
                 merit = merit_new;
                 step_max = if attempt == 1 {
