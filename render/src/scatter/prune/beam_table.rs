@@ -1,8 +1,7 @@
 //! The beams of one object for one fixed light point, computed once per scene. A beam
 //! ([`beam`](super::beam)) depends on the light point, η, and a node's or triangle's sphere and
 //! normal cone, never on the camera segment: for a point light, every descent of the render would
-//! otherwise recompute the same beams (about a seventh of a render's time on the issue 17
-//! scenes). A table holds one [`BeamBound`] per BVH node and per triangle (by leaf slot), and
+//! otherwise recompute the same beams (docs/benchmarks.md, tenth round). A table holds one [`BeamBound`] per BVH node and per triangle (by leaf slot), and
 //! serves only queries whose light point and η are exactly the ones it was built for, so a
 //! table's beam is bit for bit the one the descent would compute.
 
@@ -55,7 +54,7 @@ impl BeamTable {
         ends.light == self.light && ends.eta == self.eta
     }
 
-    /// How many beams the table holds (for its memory budget).
+    /// How many beams the table holds: one per BVH node and one per triangle.
     pub fn len(&self) -> usize {
         self.nodes.len() + self.triangles.len()
     }
