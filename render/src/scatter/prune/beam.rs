@@ -185,6 +185,7 @@ impl Beam {
         }
         let disc = b * b - a * e;
         let scale = a.abs().max(b.abs()).max(e.abs());
+        // `cone`: the t the cone keeps, `None` where it keeps every t; no t at all returns.
         let cone = if a.abs() <= 1e-12 * scale {
             // Nearly linear: 2 b t + e ≤ 0 (a ray; the other nappe is behind the plane).
             if b == 0.0 {

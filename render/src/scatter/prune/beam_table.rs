@@ -1,9 +1,10 @@
 //! The beams of one object for one fixed light point, computed once per scene. A beam
 //! ([`beam`](super::beam)) depends on the light point, η, and a node's or triangle's sphere and
 //! normal cone, never on the camera segment: for a point light, every descent of the render would
-//! otherwise recompute the same beams (docs/benchmarks.md, tenth round). A table holds one [`BeamBound`] per BVH node and per triangle (by leaf slot), and
-//! serves only queries whose light point and η are exactly the ones it was built for, so a
-//! table's beam is bit for bit the one the descent would compute.
+//! otherwise recompute the same beams (docs/benchmarks.md, tenth round). A table holds one
+//! [`BeamBound`] per BVH node and per triangle (by leaf slot), and serves only queries whose light
+//! point and η are exactly the ones it was built for, so a table's beam is bit for bit the one
+//! the descent would compute.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -55,13 +56,9 @@ impl BeamTable {
     }
 
     /// How many beams the table holds: one per BVH node and one per triangle.
-    pub fn len(&self) -> usize {
+    #[cfg(test)]
+    pub(crate) fn len(&self) -> usize {
         self.nodes.len() + self.triangles.len()
-    }
-
-    /// Whether the table holds no beam (an object without a BVH).
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
     }
 
     /// The beam of BVH node `index`.
@@ -98,10 +95,7 @@ impl<'a> Beams<'a> {
         sphere: BoundingSphere,
         cone: NormalCone,
     ) -> BeamBound {
-        match self.0 {
-            Some(table) => table.node(index),
-            None => BeamBound::of(ends.light, ends.eta, sphere, cone),
-        }
+        self.tabled_or_computed(|table| table.node(index), ends, sphere, cone)
     }
 
     /// The beam of the triangle in leaf slot `slot`, whose sphere and cone are given.
@@ -112,8 +106,19 @@ impl<'a> Beams<'a> {
         sphere: BoundingSphere,
         cone: NormalCone,
     ) -> BeamBound {
+        self.tabled_or_computed(|table| table.triangle_at_slot(slot), ends, sphere, cone)
+    }
+
+    /// `tabled` from the table if there is one, else the beam of `sphere` and `cone` for `ends`.
+    fn tabled_or_computed(
+        &self,
+        tabled: impl FnOnce(&BeamTable) -> BeamBound,
+        ends: &PathEnds,
+        sphere: BoundingSphere,
+        cone: NormalCone,
+    ) -> BeamBound {
         match self.0 {
-            Some(table) => table.triangle_at_slot(slot),
+            Some(table) => tabled(table),
             None => BeamBound::of(ends.light, ends.eta, sphere, cone),
         }
     }

@@ -33,7 +33,18 @@ impl SegmentQuery {
     /// the triangle, else the trimmed range that holds every solution. In closed form by the
     /// [beam](super::beam) where that bounds the solutions, else by bisection.
     pub fn cone_trim(&self, sphere: BoundingSphere, normals: NormalCone) -> Option<DepthRange> {
-        match self.beam(sphere, normals) {
+        self.cone_trim_given(self.beam(sphere, normals), sphere, normals)
+    }
+
+    /// [`cone_trim`](Self::cone_trim) with the sphere and cone's beam for the query's light and
+    /// η already known.
+    pub(super) fn cone_trim_given(
+        &self,
+        beam: BeamBound,
+        sphere: BoundingSphere,
+        normals: NormalCone,
+    ) -> Option<DepthRange> {
+        match beam {
             BeamBound::Empty => None,
             BeamBound::Beam(beam) => beam.trim(self),
             BeamBound::Unbounded => self.bisected_trim(sphere, normals),
@@ -41,11 +52,7 @@ impl SegmentQuery {
     }
 
     /// [`cone_trim`](Self::cone_trim) by bisection of the range alone.
-    pub(super) fn bisected_trim(
-        &self,
-        sphere: BoundingSphere,
-        normals: NormalCone,
-    ) -> Option<DepthRange> {
+    fn bisected_trim(&self, sphere: BoundingSphere, normals: NormalCone) -> Option<DepthRange> {
         let test = ConeTest::new(self, sphere, normals);
         // The whole range's verdict starts both searches (tested once).
         let whole = test.piece(self.range.lo, self.range.hi);

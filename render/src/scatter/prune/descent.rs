@@ -76,16 +76,14 @@ pub fn for_each_candidate(
         // An inner node's trimmed range is what its children start from; a leaf's would only
         // narrow the ranges its triangles are culled on, which saves less than the bisection's
         // trimming (from both ends) costs, so a leaf is only tested there.
-        let kept = match (beam, bounds.cone) {
-            (BeamBound::Empty, _) => None,
-            (BeamBound::Beam(beam), _) => beam.trim(&node_query),
-            (BeamBound::Unbounded, Some(cone)) if pruning.cone => match children {
-                Some(_) => node_query.bisected_trim(bounds.sphere, cone),
-                None => node_query
+        let kept = match bounds.cone {
+            Some(cone) if pruning.cone => match (beam, children) {
+                (BeamBound::Unbounded, None) => node_query
                     .bisected_may_contain(bounds.sphere, cone)
                     .then_some(node_query.range),
+                _ => node_query.cone_trim_given(beam, bounds.sphere, cone),
             },
-            (BeamBound::Unbounded, _) => Some(node_query.range),
+            _ => Some(node_query.range),
         };
         match kept {
             Some(range) => node_query = node_query.with_range(range),
