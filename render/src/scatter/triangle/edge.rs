@@ -247,7 +247,7 @@ pub fn skew(p: DVec3, n: DVec3, ends: &PathEnds) -> Option<Skew> {
 /// of it serves: here `‖n‖² w` (w as in [`refracted`]), which needs no division and one square
 /// root, `‖n‖² w = ‖n‖²/η d − (d·n/η + ‖n‖‖d‖ cos θ_t) n` with `(‖n‖‖d‖ cos θ_t)² = ‖n‖²‖d‖² −
 /// (‖n‖²‖d‖² − (d·n)²)/η²`, `d = P − L`. None exactly where [`refracted`] is None (up to
-/// rounding). [`ScanPoints::skew_signs`] does the same operations, batched.
+/// rounding). [`skew_signs`] does the same operations, batched.
 #[cfg(test)]
 #[inline]
 pub fn skew_sign(p: DVec3, n: DVec3, ends: &PathEnds) -> Option<SkewSign> {
@@ -282,7 +282,7 @@ pub fn scan_line(patch: &TrianglePatch, ends: &PathEnds, line: &BarycentricLine)
         let (a, b) = line.at(i as f64 / LINE_SCAN as f64);
         points.set(i, patch.point(a, b), patch.normal(a, b));
     }
-    points.skew_signs(ends)
+    skew_signs(&points, ends)
 }
 
 /// The scan of a straight edge from `p0` (normal `n0`) to `p1` (normal `n1`), the same whichever
@@ -294,13 +294,11 @@ pub fn scan_edge(p: [DVec3; 2], n: [DVec3; 2], ends: &PathEnds) -> LineScan {
         let s = i as f64 / LINE_SCAN as f64;
         points.set(i, p[0] + s * dp, n[0] + s * dn);
     }
-    points.skew_signs(ends)
+    skew_signs(&points, ends)
 }
 
 /// The points of one scan, by coordinate (structure of arrays), so that [`skew_signs`] runs the
 /// same arithmetic on all of them in a loop the compiler vectorises.
-///
-/// [`skew_signs`]: ScanPoints::skew_signs
 #[derive(Default)]
 struct ScanPoints {
     p: [[f64; LINE_SCAN + 1]; 3],
@@ -314,52 +312,58 @@ impl ScanPoints {
             self.n[k][i] = nk;
         }
     }
+}
 
-    /// `skew_sign` at every point, with exactly its operations in its order (so the same bits),
-    /// computed for all points and then masked where `skew_sign` would return None.
-    fn skew_signs(&self, ends: &PathEnds) -> LineScan {
-        const N: usize = LINE_SCAN + 1;
-        let [px, py, pz] = &self.p;
-        let [nx, ny, nz] = &self.n;
-        let (l, o, r) = (ends.light, ends.origin, ends.dir);
-        let inv_eta = ends.eta.recip();
-        let mut value = [0.0; N];
-        let mut ahead = [false; N];
-        let mut valid = [false; N];
-        for i in 0..N {
-            let (dx, dy, dz) = (px[i] - l.x, py[i] - l.y, pz[i] - l.z);
-            let nn = nx[i] * nx[i] + ny[i] * ny[i] + nz[i] * nz[i];
-            let nd = nn * (dx * dx + dy * dy + dz * dz);
-            let dn = dx * nx[i] + dy * ny[i] + dz * nz[i];
-            let tangential = (nd - dn * dn) * (inv_eta * inv_eta);
-            let k = -(dn * inv_eta + (nd - tangential).sqrt());
-            let scale = nn * inv_eta;
-            let (wx, wy, wz) = (
-                dx * scale + k * nx[i],
-                dy * scale + k * ny[i],
-                dz * scale + k * nz[i],
-            );
-            let (cx, cy, cz) = (
-                r.y * wz - wy * r.z,
-                r.z * wx - wz * r.x,
-                r.x * wy - wx * r.y,
-            );
-            let len2 = cx * cx + cy * cy + cz * cz;
-            let w2 = wx * wx + wy * wy + wz * wz;
-            let (rx, ry, rz) = (px[i] - o.x, py[i] - o.y, pz[i] - o.z);
-            let rel_dir = rx * r.x + ry * r.y + rz * r.z;
-            let rel_w = rx * wx + ry * wy + rz * wz;
-            let dir_w = r.x * wx + r.y * wy + r.z * wz;
-            value[i] = rx * cx + ry * cy + rz * cz;
-            ahead[i] = dir_w * rel_dir - rel_w > 0.0;
-            valid[i] = nd > 0.0
-                && nd.is_finite()
-                && dn < 0.0
-                && tangential < nd
-                && !(len2.is_nan() || len2 <= 1e-24 * w2);
-        }
-        std::array::from_fn(|i| valid[i].then(|| SkewSign::new(value[i], ahead[i])))
+/// `skew_sign` at every point of `points`, with exactly its operations in its order (so the same
+/// bits), computed for all points and then masked where `skew_sign` would return None.
+///
+/// It is compiled twice, for the baseline x86-64 and for AVX2 (four lanes instead of two), and
+/// the CPU's best is chosen at run time (`multiversion`). Both run the same IEEE operations in the
+/// same order (Rust never fuses a multiply and an add), so a scan has the same bits on every
+/// machine and a farm of mixed machines still renders the image bit for bit.
+#[multiversion::multiversion(targets("x86_64+avx+avx2"))]
+fn skew_signs(points: &ScanPoints, ends: &PathEnds) -> LineScan {
+    const N: usize = LINE_SCAN + 1;
+    let [px, py, pz] = &points.p;
+    let [nx, ny, nz] = &points.n;
+    let (l, o, r) = (ends.light, ends.origin, ends.dir);
+    let inv_eta = ends.eta.recip();
+    let mut value = [0.0; N];
+    let mut ahead = [false; N];
+    let mut valid = [false; N];
+    for i in 0..N {
+        let (dx, dy, dz) = (px[i] - l.x, py[i] - l.y, pz[i] - l.z);
+        let nn = nx[i] * nx[i] + ny[i] * ny[i] + nz[i] * nz[i];
+        let nd = nn * (dx * dx + dy * dy + dz * dz);
+        let dn = dx * nx[i] + dy * ny[i] + dz * nz[i];
+        let tangential = (nd - dn * dn) * (inv_eta * inv_eta);
+        let k = -(dn * inv_eta + (nd - tangential).sqrt());
+        let scale = nn * inv_eta;
+        let (wx, wy, wz) = (
+            dx * scale + k * nx[i],
+            dy * scale + k * ny[i],
+            dz * scale + k * nz[i],
+        );
+        let (cx, cy, cz) = (
+            r.y * wz - wy * r.z,
+            r.z * wx - wz * r.x,
+            r.x * wy - wx * r.y,
+        );
+        let len2 = cx * cx + cy * cy + cz * cz;
+        let w2 = wx * wx + wy * wy + wz * wz;
+        let (rx, ry, rz) = (px[i] - o.x, py[i] - o.y, pz[i] - o.z);
+        let rel_dir = rx * r.x + ry * r.y + rz * r.z;
+        let rel_w = rx * wx + ry * wy + rz * wz;
+        let dir_w = r.x * wx + r.y * wy + r.z * wz;
+        value[i] = rx * cx + ry * cy + rz * cz;
+        ahead[i] = dir_w * rel_dir - rel_w > 0.0;
+        valid[i] = nd > 0.0
+            && nd.is_finite()
+            && dn < 0.0
+            && tangential < nd
+            && !(len2.is_nan() || len2 <= 1e-24 * w2);
     }
+    std::array::from_fn(|i| valid[i].then(|| SkewSign::new(value[i], ahead[i])))
 }
 
 /// The solution curve of one triangle and camera segment within a depth range, solved to a

@@ -262,6 +262,12 @@ impl TrianglePatch {
 
     /// `f(t, a, b) = Ĥ + N̂s` and its exact Jacobian (physics.md §2.1). None where f is undefined:
     /// V or L on P, a vanishing half vector (η = 1 at the solution) or interpolated normal.
+    ///
+    /// Always inlined, so that it is compiled into each of [`newton`]'s versions (baseline and
+    /// AVX2), its one hot caller.
+    ///
+    /// [`newton`]: crate::scatter::triangle::solve::newton
+    #[inline(always)]
     pub fn residual(&self, ends: &PathEnds, t: f64, a: f64, b: f64) -> Option<Residual> {
         let p = self.point(a, b);
         let v = ends.camera_point(t);

@@ -118,6 +118,10 @@ pub struct Converged {
 /// per accepted step up to 1.5 and halves when backtracking was needed; a step that does not
 /// decrease ‖g‖ is halved twice, then Levenberg–Marquardt damped with growing λ. The solve aborts
 /// when a or b leaves (−1, 2), when `J₂ᵀJ₂` is singular, or after `max_evaluations`.
+///
+/// Compiled for the baseline x86-64 and for AVX2, chosen at run time like the edge scans'
+/// `skew_signs`: the same operations in the same order, so the same bits on every machine.
+#[multiversion::multiversion(targets("x86_64+avx+avx2"))]
 pub fn newton(
     patch: &TrianglePatch,
     ends: &PathEnds,
