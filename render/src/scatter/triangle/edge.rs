@@ -363,7 +363,13 @@ fn skew_signs(points: &ScanPoints, ends: &PathEnds) -> LineScan {
             && tangential < nd
             && !(len2.is_nan() || len2 <= 1e-24 * w2);
     }
-    std::array::from_fn(|i| valid[i].then(|| SkewSign::new(value[i], ahead[i])))
+    let mut scan = [None; N];
+    for (i, out) in scan.iter_mut().enumerate() {
+        if valid[i] {
+            *out = Some(SkewSign::new(value[i], ahead[i]));
+        }
+    }
+    scan
 }
 
 /// The solution curve of one triangle and camera segment within a depth range, solved to a
