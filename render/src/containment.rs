@@ -7,9 +7,13 @@
 //! 1 inside a closed, outward-wound mesh and 0 outside, with no ray to graze an edge or a vertex;
 //! for an open mesh it degrades gracefully (a point is inside when the number is above ½). The
 //! distance to the mesh tells a sphere light that straddles a surface, which no model supports.
+//!
+//! Two media must be apart or one wholly inside the other: where their surfaces cross, the
+//! region both bound has no one medium, so [`surfaces_cross`] lets the scene refuse it.
 
 use glam::DVec3;
 
+use crate::bvh::Bvh;
 use crate::mesh::TriangleMesh;
 
 /// A point counts as inside a mesh when its winding number is above this.
@@ -29,6 +33,36 @@ pub fn holds(mesh: &TriangleMesh, p: DVec3) -> bool {
     let winding = winding_number(mesh, p);
     winding > INSIDE_WINDING
         || (winding > 0.5 * INSIDE_WINDING && distance_to_mesh(mesh, p) <= size * ON_SURFACE)
+}
+
+/// Whether the surface of `a` crosses the surface of `b`: an edge of one passes through the
+/// inside of a triangle of the other or through its edges. Ends of an edge that lie on the other
+/// surface and edges that lie in the other's plane do not count, so surfaces that only touch do
+/// not cross. `a_bvh` and `b_bvh` are the meshes' BVHs (each triangle's own index).
+pub fn surfaces_cross(a: &TriangleMesh, a_bvh: &Bvh, b: &TriangleMesh, b_bvh: &Bvh) -> bool {
+    let ((a_lo, a_hi), (b_lo, b_hi)) = (a.bounds(), b.bounds());
+    if a_hi.cmplt(b_lo).any() || b_hi.cmplt(a_lo).any() {
+        return false;
+    }
+    edge_meets(a, b_bvh) || edge_meets(b, a_bvh)
+}
+
+/// An edge's ends are moved this share of its length inward before it is tested, so an end on
+/// the other surface does not count whichever way its rounding falls.
+pub const EDGE_END_MARGIN: f64 = 1e-7;
+
+/// Whether an edge of `mesh` meets a triangle of `other_bvh` strictly between its ends.
+fn edge_meets(mesh: &TriangleMesh, other_bvh: &Bvh) -> bool {
+    (0..mesh.triangle_count()).any(|t| {
+        let corners = mesh.corners(t);
+        (0..3).any(|k| {
+            let (p, q) = (corners[k], corners[(k + 1) % 3]);
+            let length = p.distance(q);
+            let dir = (q - p) / length;
+            let margin = EDGE_END_MARGIN * length;
+            length > 0.0 && other_bvh.any_hit(p + margin * dir, dir, length - 2.0 * margin)
+        })
+    })
 }
 
 /// The generalized winding number of `mesh` at `p` (1 inside a closed mesh wound

@@ -222,6 +222,8 @@ impl Scene {
             .map(|(i, l)| Light::new(l, reach).map_err(|e| nested_error(format!("lights[{i}]"), e)))
             .collect::<Result<Vec<_>, _>>()?;
 
+        let light_centers: Vec<DVec3> = lights.iter().map(Light::center).collect();
+        check_media_layout(&objects, camera.position(), &light_centers)?;
         let camera_medium = medium_at(&objects, "the camera", camera.position(), &mut warnings);
         let mut light_media = Vec::with_capacity(lights.len());
         for (j, light) in lights.iter().enumerate() {
@@ -534,6 +536,61 @@ fn medium_at(
         ));
     }
     Some(innermost)
+}
+
+/// Each dielectric object's medium must be apart from every other's or wholly inside it (the
+/// region two crossing surfaces both bound has no one medium), and must not lie inside a closed
+/// diffuse object that the camera is outside of or that holds no light (nothing there could be
+/// seen or lit; a closed room around the camera and a light is fine). Refused naming both objects.
+fn check_media_layout(
+    objects: &[Object],
+    camera: DVec3,
+    lights: &[DVec3],
+) -> Result<(), SceneError> {
+    let dielectric = |o: &Object| matches!(o.material, Material::Dielectric(_));
+    for (i, inner) in objects.iter().enumerate().filter(|(_, o)| dielectric(o)) {
+        for (k, other) in objects.iter().enumerate() {
+            if k == i {
+                continue;
+            }
+            let cross =
+                || containment::surfaces_cross(&inner.mesh, &inner.bvh, &other.mesh, &other.bvh);
+            if dielectric(other) && k < i && cross() {
+                return Err(SceneError::new(
+                    inner.name.clone(),
+                    format!(
+                        "its surface crosses the surface of {}: two dielectric objects must be \
+                         apart or one wholly inside the other (overlapping media are not \
+                         supported)",
+                        other.name
+                    ),
+                ));
+            }
+            if !matches!(other.material, Material::Diffuse { .. }) || !other.report.closed {
+                continue;
+            }
+            let holds = |p: DVec3| containment::holds(&other.mesh, p);
+            let enclosed = inner.mesh.positions().first().is_some_and(|&v| holds(v)) && !cross();
+            let why = if !enclosed {
+                continue;
+            } else if !holds(camera) {
+                "the camera is outside it, so the medium cannot be seen"
+            } else if !lights.iter().any(|&l| holds(l)) {
+                "no light is inside it, so the medium cannot be lit"
+            } else {
+                continue;
+            };
+            return Err(SceneError::new(
+                inner.name.clone(),
+                format!(
+                    "the medium lies inside the closed diffuse object {} and {why} (a medium \
+                     inside an opaque object is refused)",
+                    other.name
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The sphere around every object's bounds (the unit sphere when there are none).

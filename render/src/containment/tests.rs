@@ -3,6 +3,7 @@
 //! force over a fine grid of triangle points.
 
 use super::*;
+use crate::bvh::Bvh;
 use crate::procedural::icosphere;
 
 #[test]
@@ -78,5 +79,36 @@ fn distance_matches_brute_force() {
             d <= brute + 1e-12 && brute - d < 0.01,
             "{p}: {d} vs {brute}"
         );
+    }
+}
+
+/// Two unit icospheres: apart, one inside the other, touching at a point and overlapping.
+#[test]
+fn surfaces_cross_only_where_media_overlap() {
+    let sphere = |center: DVec3, radius: f64| {
+        let mesh = icosphere(radius, 2).mapped(|p| p + center, |n| n, false);
+        let bvh = Bvh::build(
+            &(0..mesh.triangle_count())
+                .map(|t| mesh.corners(t))
+                .collect::<Vec<_>>(),
+        );
+        (mesh, bvh)
+    };
+    let (a, a_bvh) = sphere(DVec3::ZERO, 1.0);
+    for (center, radius, expected) in [
+        (DVec3::new(3.0, 0.0, 0.0), 1.0, false),
+        (DVec3::new(0.1, 0.0, 0.0), 0.5, false),
+        (DVec3::new(0.0, 0.0, 0.0), 2.0, false),
+        (DVec3::new(1.0, 0.0, 0.0), 1.0, true),
+        (DVec3::new(0.0, 0.0, 0.5), 0.7, true),
+        (DVec3::new(0.0, 1.5, 0.0), 1.0, true),
+    ] {
+        let (b, b_bvh) = sphere(center, radius);
+        assert_eq!(
+            surfaces_cross(&a, &a_bvh, &b, &b_bvh),
+            expected,
+            "a sphere of radius {radius} at {center}"
+        );
+        assert_eq!(surfaces_cross(&b, &b_bvh, &a, &a_bvh), expected);
     }
 }

@@ -236,3 +236,62 @@ fn an_obj_without_normals_is_creased_on_request_and_warns_when_smoothed_over() {
         "objects[0].shape.crease_angle: must be an angle in degrees from 0 to 180, got 200"
     );
 }
+
+/// Two dielectric spheres whose surfaces cross are refused naming both; one inside the other is
+/// built (with the nesting warning). A dielectric inside a closed diffuse sphere is refused when
+/// the camera is outside it or no light is inside it, and built when both are inside.
+#[test]
+fn media_that_overlap_or_hide_in_a_diffuse_object_are_refused() {
+    let none = Assets::new();
+    let sphere = |center: &str, radius: f64, material: &str| {
+        format!(
+            r#"{{ "shape": {{ "type": "icosphere", "radius": {radius}, "subdivisions": 2 }},
+                  "transform": {{ "translate": {center} }}, {material} }}"#
+        )
+    };
+    let diffuse = r#""material": { "type": "diffuse", "reflectance": [0.5, 0.5, 0.5] }"#;
+    let light =
+        |p: &str| format!(r#"{{ "type": "point", "position": {p}, "intensity": [1, 1, 1] }}"#);
+    let overlap = format!(
+        "{}, {}",
+        sphere("[0, 0, 0]", 1.0, GLASS),
+        sphere("[1.2, 0, 0]", 1.0, GLASS)
+    );
+    let message = error(&overlap, &light("[0, 4, 0]"), &none);
+    assert!(
+        message.starts_with("objects[1]: its surface crosses the surface of objects[0]"),
+        "{message}"
+    );
+    let nested = format!(
+        "{}, {}",
+        sphere("[0, 0, 0]", 1.0, GLASS),
+        sphere("[0.1, 0, 0]", 0.5, GLASS)
+    );
+    let scene = Scene::build(&scene_json(&nested, &light("[0, 4, 0]")), &none).unwrap();
+    assert!(
+        scene
+            .warnings()
+            .iter()
+            .any(|w| w.starts_with("objects[1] lies inside objects[0]"))
+    );
+
+    let hidden = format!(
+        "{}, {}",
+        sphere("[0, 0, 0]", 2.0, diffuse),
+        sphere("[0, 0, 0]", 1.0, GLASS)
+    );
+    let message = error(&hidden, &light("[0, 1.5, 0]"), &none);
+    assert!(
+        message.starts_with("objects[1]: the medium lies inside the closed diffuse object objects[0] and the camera is outside it"),
+        "{message}"
+    );
+    // The camera (0, 0, 5) inside a room of radius 8, the light outside it, then inside.
+    let room = format!(
+        "{}, {}",
+        sphere("[0, 0, 0]", 8.0, diffuse),
+        sphere("[0, 0, 0]", 1.0, GLASS)
+    );
+    let message = error(&room, &light("[0, 9, 0]"), &none);
+    assert!(message.contains("no light is inside it"), "{message}");
+    Scene::build(&scene_json(&room, &light("[0, 4, 0]")), &none).unwrap();
+}
