@@ -8,9 +8,14 @@
 //!
 //! Run: `cargo test -p spindle-render --test degenerate -- --nocapture` (prints every error).
 
+#[path = "support/segment.rs"]
+mod segment_support;
+
 use glam::DVec3;
+use segment_support::{segment_to_surface, single_scatter_mean};
 use serde_json::{Value, json};
 use spindle_common::tile::TileRect;
+use spindle_render::segment::Segment;
 use spindle_render::{Assets, Scene, render_tile};
 
 /// A unit icosphere (3 subdivisions: a vertex at each pole (0, 0, ±1), vertex normals exactly
@@ -94,5 +99,160 @@ fn camera_on_the_light_axis_inside_the_ball() {
             "camera {camera}: image mean off by {mean}"
         );
         assert!(worst < 2e-2, "camera {camera}: a pixel off by {worst}");
+    }
+}
+
+/// The segment of the ball from `origin` (inside it or on its surface) along `dir` to the
+/// surface: the boundary is looked for from 0.1 along it, so an origin on the surface is not
+/// taken for the segment's end.
+fn segment(scene: &Scene, origin: DVec3, dir: DVec3) -> Segment {
+    let dir = dir.normalize();
+    let far = segment_to_surface(scene, origin + 0.1 * dir, dir);
+    Segment {
+        origin,
+        length: far.length + 0.1,
+        ..far
+    }
+}
+
+/// The interval method, jittered with K = 2: unbiased, so its camera samples' spread is its noise.
+fn interval() -> Value {
+    json!({"method": "interval", "k": 2, "jitter": true})
+}
+
+/// An estimator (`tested`, the single-scattering settings) on one camera segment of the glass
+/// ball, and point sampling (M = 64) on the `reference` segment, over `n` camera samples each:
+/// `(tested, its stderr, points, its stderr)`.
+fn on_segment(
+    tested: Value,
+    light: DVec3,
+    eta: f64,
+    (origin, dir): (DVec3, DVec3),
+    reference: (DVec3, DVec3),
+    n: u32,
+) -> (f64, f64, f64, f64) {
+    let camera = DVec3::new(0.0, 0.0, 5.0);
+    let interval = glass_ball(camera, light, eta, tested);
+    let points = glass_ball(
+        camera,
+        light,
+        eta,
+        json!({"method": "point_sampling", "samples_per_segment": 64}),
+    );
+    let seg = segment(&interval, origin, dir);
+    let reference_seg = segment(&points, reference.0, reference.1);
+    let (i, i_err) = single_scatter_mean(&interval, &seg, n, (1, 2, 3));
+    let (p, p_err) = single_scatter_mean(&points, &reference_seg, n, (4, 5, 6));
+    (i, i_err, p, p_err)
+}
+
+/// Asserts that two estimates agree within four standard errors of their difference plus
+/// `slack` relative, and prints the relative difference.
+fn assert_agree(name: &str, (a, a_err, b, b_err): (f64, f64, f64, f64), slack: f64) {
+    let diff = a - b;
+    let noise = (a_err * a_err + b_err * b_err).sqrt();
+    println!(
+        "{name}: {a:.6e} vs {b:.6e}: relative difference {:+.2e} (noise {:.1e})",
+        diff / b,
+        noise / b
+    );
+    assert!(b > 0.0, "{name}: the reference is black");
+    assert!(
+        diff.abs() <= 4.0 * noise + slack * b.abs(),
+        "{name}: {a} vs {b} ({:+.2e} relative, noise {:.1e})",
+        diff / b,
+        noise / b
+    );
+}
+
+/// Camera segments along the line through the light and the ball's centre: every camera point
+/// is reached by the straight path through the pole vertex (0, 0, −1), so the solution curve
+/// runs along a vertex of six triangles for the whole segment. Compared with point sampling on
+/// the same segment 10⁻⁷ to the side, where the path refracts inside one triangle. Each of the
+/// six triangles counted the path (interval method and point sampling alike: 6.005 times the
+/// reference) until a point on an edge or a vertex was given to one triangle
+/// (`TrianglePatch::owns`).
+#[test]
+fn segments_along_the_light_axis() {
+    let light = DVec3::new(0.0, 0.0, -4.0);
+    let side = DVec3::new(1e-7, 0.0, 0.0);
+    for (name, origin, dir) in [
+        (
+            "inside, toward the light",
+            DVec3::new(0.0, 0.0, 0.5),
+            -DVec3::Z,
+        ),
+        (
+            "inside, away from the light",
+            DVec3::new(0.0, 0.0, 0.5),
+            DVec3::Z,
+        ),
+        (
+            "from the far pole vertex",
+            DVec3::new(0.0, 0.0, 1.0),
+            -DVec3::Z,
+        ),
+    ] {
+        let result = on_segment(
+            interval(),
+            light,
+            1.5,
+            (origin, dir),
+            (origin + side, dir),
+            16,
+        );
+        assert_agree(&format!("interval, {name}"), result, 1e-3);
+        let points = json!({"method": "point_sampling", "samples_per_segment": 64});
+        let result = on_segment(points, light, 1.5, (origin, dir), (origin + side, dir), 16);
+        assert_agree(&format!("point sampling, {name}"), result, 1e-3);
+    }
+}
+
+/// Grazing light: a light in the tangent plane of the pole vertex (its normal's incidence is
+/// exactly grazing) and a light in the plane of one of the pole's faces (edge-on to it); camera
+/// segments through the region those paths light, compared with point sampling on the same
+/// segment.
+#[test]
+fn grazing_light() {
+    let mesh = spindle_render::procedural::icosphere(1.0, 3);
+    // The face of the pole (0, 0, −1) that the +x axis crosses.
+    let face = (0..mesh.triangle_count())
+        .find(|&i| {
+            let c = mesh.corners(i);
+            c[0] == -DVec3::Z && c[1].x > 0.0 && c[2].x > 0.0 && c[1].y * c[2].y < 0.0
+        })
+        .expect("a face of the pole");
+    let c = mesh.corners(face);
+    let in_plane = ((c[1] + c[2]) / 2.0 - c[0]).normalize();
+    let segments = [
+        (DVec3::new(0.0, 0.0, -0.5), DVec3::new(0.3, 0.2, -1.0)),
+        (DVec3::new(-0.2, 0.1, 0.0), DVec3::new(1.0, -0.1, -0.3)),
+    ];
+    for (name, light) in [
+        ("light on the pole's horizon", DVec3::new(4.0, 0.0, -1.0)),
+        ("light in a face's plane", c[0] + 4.0 * in_plane),
+    ] {
+        for (i, &(origin, dir)) in segments.iter().enumerate() {
+            let result = on_segment(interval(), light, 1.5, (origin, dir), (origin, dir), 16);
+            assert_agree(&format!("{name}, segment {i}"), result, 1e-3);
+        }
+    }
+}
+
+/// Grazing camera segments: just under the surface, nearly tangent to it, at the pole vertex
+/// and across a face, lit from above and from the side.
+#[test]
+fn grazing_camera_segments() {
+    for light in [DVec3::new(0.0, 0.0, 4.0), DVec3::new(3.0, 1.0, 2.5)] {
+        for (i, (origin, dir)) in [
+            (DVec3::new(-0.1, 0.0, 0.99), DVec3::new(1.0, 0.0, 0.0)),
+            (DVec3::new(0.0, -0.1, 0.985), DVec3::new(0.1, 1.0, 0.05)),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let result = on_segment(interval(), light, 1.5, (origin, dir), (origin, dir), 16);
+            assert_agree(&format!("light {light}, grazing segment {i}"), result, 1e-3);
+        }
     }
 }
