@@ -283,6 +283,49 @@ fn straight_path(seg: &Segment, light: DVec3, inside: impl Fn(DVec3) -> f64) -> 
     )
 }
 
+/// A point light exactly on the surface — on the pole vertex (0, 0, 1), on the middle of an
+/// edge of that vertex, at the centroid of one of its faces — is inside the medium (the
+/// containment test counts the surface as inside), so the light reaches every camera point on
+/// the straight line through the medium: the airlight integral (physics.md §4), with the whole
+/// of `V → L` inside. The shadow ray must not stop at the surface the light sits on.
+#[test]
+fn light_on_the_surface() {
+    let mesh = spindle_render::procedural::icosphere(1.0, 3);
+    let face = (0..mesh.triangle_count())
+        .find(|&i| mesh.corners(i)[0] == DVec3::Z)
+        .expect("a face of the pole");
+    let c = mesh.corners(face);
+    for (name, light) in [
+        ("vertex", c[0]),
+        ("edge", (c[0] + c[1]) / 2.0),
+        ("face", (c[0] + c[1] + c[2]) / 3.0),
+    ] {
+        let scene = glass_ball(
+            DVec3::new(0.0, 0.0, 5.0),
+            light,
+            1.5,
+            json!({"samples_per_segment": 256}),
+        );
+        assert_eq!(scene.light_medium(0), Some(0), "{name}");
+        let seg = segment(
+            &scene,
+            DVec3::new(0.1, -0.2, -0.3),
+            DVec3::new(0.2, 1.0, 0.4),
+        );
+        let truth = straight_path(&seg, light, |v| v.distance(light));
+        let (value, stderr) = single_scatter_mean(&scene, &seg, 4, (1, 2, 3));
+        let err = value / truth - 1.0;
+        println!(
+            "light on a {name}: {value:.7e} vs airlight {truth:.7e}: {err:+.2e} (noise {:.1e})",
+            stderr / truth
+        );
+        assert!(
+            err.abs() < 4.0 * stderr / truth + 1e-4,
+            "light on a {name}: {err}"
+        );
+    }
+}
+
 /// η → 1 from above: `interval` at η = 1 + 2·10⁻⁷, 1 + 10⁻⁸, 1 + 10⁻⁹ and 1 + 10⁻¹² against the
 /// straight-path integral of η = 1 (physics.md §4; `d_in` by a ray cast to the surface). Physics
 /// moves the value by about 0.4·(η − 1), far below the tolerance. Before, the interval method
