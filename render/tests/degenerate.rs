@@ -53,20 +53,20 @@ fn image(scene: &Scene) -> Vec<f64> {
         .collect()
 }
 
-/// The interval method (K = 1) against point sampling (M = 256) on the 8×8 image of the glass
-/// ball from `camera` with the light at `light`: (relative error of the image's mean, largest
-/// relative error of a pixel).
-fn interval_against_points(camera: DVec3, light: DVec3) -> (f64, f64) {
+/// The interval method (K = `k`, midpoint rule) against point sampling (M = 256) on the 8×8
+/// image of the glass ball of index `eta` from `camera` with the light at `light`: (relative
+/// error of the image's mean, largest relative error of a pixel).
+fn interval_against_points(camera: DVec3, light: DVec3, eta: f64, k: u32) -> (f64, f64) {
     let interval = image(&glass_ball(
         camera,
         light,
-        1.5,
-        json!({"method": "interval", "k": 1}),
+        eta,
+        json!({"method": "interval", "k": k}),
     ));
     let points = image(&glass_ball(
         camera,
         light,
-        1.5,
+        eta,
         json!({"method": "point_sampling", "samples_per_segment": 256}),
     ));
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
@@ -93,8 +93,42 @@ fn interval_against_points(camera: DVec3, light: DVec3) -> (f64, f64) {
 fn camera_on_the_light_axis_inside_the_ball() {
     let light = DVec3::new(0.0, 0.0, -4.0);
     for camera in [DVec3::new(0.0, 0.0, 0.5), DVec3::new(1e-6, 0.0, 0.5)] {
-        let (mean, worst) = interval_against_points(camera, light);
+        let (mean, worst) = interval_against_points(camera, light, 1.5, 1);
         println!("camera {camera}: image mean {mean:+.2e}, worst pixel {worst:.2e}");
+        assert!(
+            mean.abs() < 2e-3,
+            "camera {camera}: image mean off by {mean}"
+        );
+        assert!(worst < 2e-2, "camera {camera}: a pixel off by {worst}");
+    }
+}
+
+/// More images of the same line: the camera exactly on the surface at the pole vertex (0, 0, 1)
+/// (inside: the surface holds the medium); the camera outside the ball on the line with the
+/// light between it and the ball; and the light's axial caustic inside the ball (η = 4: the rays
+/// through the pole's ring of incidence cross the axis within the ball), seen across from the
+/// side, so that camera rays pass through and beside it. K = 8: with the light just in front of
+/// the ball, K = 1's midpoint rule is 3.3 % dark on this film, and 1.9 % with the light 0.36 off
+/// the line; at K = 8, 1.2e-3 and 5.7e-4: a quadrature bias, which K removes.
+///
+/// Not here: the camera outside on the line looking at the light through the ball (camera
+/// (0, 0, 5), light (0, 0, −4)), where the interval method (K = 64) is 5.2e-3 brighter than point
+/// sampling at M = 4096 on the image and up to 3 % on a pixel (2.3e-3 and 1 % with the light
+/// 0.36 off the line): point sampling keeps one solution per triangle and loses the second near
+/// a fold, which this view is full of; only the brute-force reference can decide, and it is too
+/// slow for a test of this size.
+#[test]
+fn symmetric_images() {
+    for (camera, light, eta) in [
+        (DVec3::new(0.0, 0.0, 1.0), DVec3::new(0.0, 0.0, -4.0), 1.5),
+        (DVec3::new(0.0, 0.0, 5.0), DVec3::new(0.0, 0.0, 3.0), 1.5),
+        (DVec3::new(4.0, 0.0, 0.0), DVec3::new(0.0, 0.0, -4.0), 4.0),
+    ] {
+        let (mean, worst) = interval_against_points(camera, light, eta, 8);
+        println!(
+            "camera {camera}, light {light}, eta {eta}: image mean {mean:+.2e}, worst pixel \
+             {worst:.2e}"
+        );
         assert!(
             mean.abs() < 2e-3,
             "camera {camera}: image mean off by {mean}"
