@@ -22,6 +22,10 @@ pub const INSIDE_WINDING: f64 = 0.5;
 /// A point this close to a mesh (relative to the mesh's size) is on its surface.
 pub const ON_SURFACE: f64 = 1e-9;
 
+/// A point whose triple product with a triangle's corners is below this fraction of the
+/// product of their distances lies in the triangle's plane (rounding is about 1e-16 of it).
+const IN_PLANE: f64 = 1e-12;
+
 /// Whether the medium inside `mesh` holds `p`: inside it, or on its surface (a light on the
 /// surface lights the medium directly, with no interface to cross).
 pub fn holds(mesh: &TriangleMesh, p: DVec3) -> bool {
@@ -67,6 +71,11 @@ fn edge_meets(mesh: &TriangleMesh, other_bvh: &Bvh) -> bool {
 
 /// The generalized winding number of `mesh` at `p` (1 inside a closed mesh wound
 /// counter-clockwise from outside, 0 outside, ½ on the surface).
+///
+/// A triangle that `p` lies on (in its plane to [`IN_PLANE`] of the corners' distances, and
+/// inside it) is where the solid angle jumps by ±2π from one side to the other; there the sign
+/// of the rounded triple product would pick a side at random (a light at the centroid of a face
+/// came out outside), so such a triangle counts for the mean of both sides, 0.
 pub fn winding_number(mesh: &TriangleMesh, p: DVec3) -> f64 {
     let total: f64 = (0..mesh.triangle_count())
         .map(|i| {
@@ -75,6 +84,9 @@ pub fn winding_number(mesh: &TriangleMesh, p: DVec3) -> f64 {
             let (la, lb, lc) = (a.length(), b.length(), c.length());
             let numerator = a.dot(b.cross(c));
             let denominator = la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb;
+            if numerator.abs() <= IN_PLANE * la * lb * lc && denominator < 0.0 {
+                return 0.0;
+            }
             2.0 * numerator.atan2(denominator)
         })
         .sum();

@@ -22,7 +22,7 @@ use crate::scatter::prune::descent::{DescentStack, for_each_candidate};
 use crate::scatter::triangle::depth_density::{DepthDensity, DepthSample, PathLengths};
 use crate::scatter::triangle::ends::DepthRange;
 use crate::scatter::triangle::solve::{
-    NewtonSettings, RefractionPath, Slice, newton, straight_line_guess,
+    INSIDE_TOLERANCE, NewtonSettings, RefractionPath, Slice, newton, straight_line_guess,
 };
 
 /// The point-sampling estimate of the segment `[0, length]` lit by the connection's light point.
@@ -77,6 +77,7 @@ pub fn estimate(
                     let ends = &connection.ends;
                     if let Some(path) =
                         RefractionPath::from_zero(&patch, ends, t, a, b, &zero.residual)
+                            .filter(|_| patch.owns(a, b, INSIDE_TOLERANCE))
                     {
                         stats.samples += 1;
                         sum +=

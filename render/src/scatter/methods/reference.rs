@@ -19,7 +19,7 @@ use crate::scatter::methods::connect::Connection;
 use crate::scatter::triangle::depth_density::{DepthDensity, DepthSample, PathLengths};
 use crate::scatter::triangle::ends::DepthRange;
 use crate::scatter::triangle::solve::{
-    NewtonSettings, RefractionPath, Slice, newton, straight_line_guess,
+    INSIDE_TOLERANCE, NewtonSettings, RefractionPath, Slice, newton, straight_line_guess,
 };
 
 /// Grid of starts per side: the starts are `((i + 1/3)/G, (j + 1/3)/G)` for `i + j < G`.
@@ -92,6 +92,7 @@ pub fn estimate(
                     continue;
                 }
                 let Some(path) = RefractionPath::from_zero(&patch, &ends, t, a, b, &zero.residual)
+                    .filter(|_| patch.owns(a, b, INSIDE_TOLERANCE))
                 else {
                     continue;
                 };

@@ -242,6 +242,37 @@ impl TrianglePatch {
         a >= -tolerance && b >= -tolerance && a + b <= 1.0 + tolerance
     }
 
+    /// Whether the point `(a, b)`, inside the triangle up to `tolerance`, belongs to this
+    /// triangle rather than to a neighbour: a point on an edge or a vertex (within `tolerance`)
+    /// is on every triangle that shares it, and a solution curve that runs along one (a camera
+    /// segment on the refracted ray of a vertex, by symmetry) would be counted by each. Such a
+    /// point belongs to the triangle that a step from it along a tangent direction `d` of the
+    /// shading normal enters (the rule of rasterisers, which give a pixel centre on an edge to
+    /// one side). `d` is a function of the shading normal alone (`any_orthonormal_pair`), which
+    /// the triangles of a smooth vertex or edge share, so they agree on the one owner; where `d`
+    /// runs along an edge the second tangent decides. Interior points belong to the triangle.
+    pub fn owns(&self, a: f64, b: f64, tolerance: f64) -> bool {
+        let on = [a <= tolerance, b <= tolerance, a + b >= 1.0 - tolerance];
+        if !on.iter().any(|&on| on) {
+            return true;
+        }
+        let Some(normal) = self.normal(a, b).try_normalize() else {
+            return false;
+        };
+        let (d1, d2) = normal.any_orthonormal_pair();
+        for d in [d1, d2] {
+            // The rates at which a step along d moves into the triangle across each side.
+            let (rate_a, rate_b) = (d.dot(self.g1), d.dot(self.g2));
+            let inward = [rate_a, rate_b, -(rate_a + rate_b)];
+            let active = || on.iter().zip(inward).filter(|(on, _)| **on).map(|(_, r)| r);
+            if active().any(|r| r == 0.0) {
+                continue;
+            }
+            return active().all(|r| r > 0.0);
+        }
+        false
+    }
+
     /// A lower bound on the cosine `c = N̂s·(x − P)/‖x − P‖` between the shading normal and the
     /// direction to `x`, over the whole triangle (see [`facing_bounds`]; `‖n(a, b)‖ ≤ 1` and
     /// `‖x − P‖` is at most its largest value at a vertex). Negative when `x` may be behind

@@ -16,7 +16,7 @@ use crate::scatter::triangle::curve::Sign;
 use crate::scatter::triangle::depth_density::{DepthDensity, PathLengths};
 use crate::scatter::triangle::ends::{DepthRange, PathEnds};
 use crate::scatter::triangle::patch::TrianglePatch;
-use crate::scatter::triangle::solve::{NewtonSettings, RefractionPath, solve_at};
+use crate::scatter::triangle::solve::{INSIDE_TOLERANCE, NewtonSettings, RefractionPath, solve_at};
 
 /// An interval whose ℓ spreads over more than this many mean free paths (of its densest channel)
 /// has its profile refined where the density's mass is, [`REFINEMENTS`] times.
@@ -69,7 +69,9 @@ pub fn for_each_sample(
         let t = t.clamp(interval.t_min, interval.t_max);
         let (path, spent) = solve_at(patch, ends, t, interval.seed_at(t), &settings);
         stats.newton_iterations += u64::from(spent);
-        path.filter(|p| Sign::of(p.branch) == Some(interval.branch))
+        path.filter(|p| {
+            Sign::of(p.branch) == Some(interval.branch) && patch.owns(p.a, p.b, INSIDE_TOLERANCE)
+        })
     };
     // Refinements only inside [t_min, t_max]: the layer at the plane is linear already.
     let inside = |t: f64| t >= interval.t_min && t <= interval.t_max;

@@ -104,7 +104,7 @@ pub fn triangle_intervals_with(
             g: c.g,
             consumed: false,
         };
-        boundary.push_or_count(point, &mut stats.capacity_drops);
+        tracer.add_boundary(&mut boundary, point, stats);
     }
     for (side, t) in [(Side::RangeLow, range.lo), (Side::RangeHigh, range.hi)] {
         if may_hold_at(t) {

@@ -12,7 +12,7 @@ use crate::scatter::triangle::ends::{DepthRange, PathEnds};
 use crate::scatter::triangle::patch::TrianglePatch;
 use crate::scatter::triangle::small_list::SmallList;
 use crate::scatter::triangle::solve::{
-    NewtonSettings, RefractionPath, Slice, is_physical, newton, plane_piercing,
+    INSIDE_TOLERANCE, NewtonSettings, RefractionPath, Slice, is_physical, newton, plane_piercing,
     plane_refraction_guess,
 };
 
@@ -36,6 +36,9 @@ const STEP_MAX: f64 = 0.15;
 const STEP_CAP: f64 = 3.0;
 const STEP_BEND: f64 = 0.05;
 const STEP_MIN: f64 = 1e-7;
+/// Points of parameter space closer than this (t scaled by the triangle's size) are one point
+/// of the curve: several boundary points found there, or an arc's exit and a boundary point.
+pub(super) const SAME_POINT: f64 = 1e-7;
 
 /// One traced point of the curve: its position and the t-component of its oriented tangent,
 /// `None` where the tangent is unknown (an exit point that could not be solved exactly).
@@ -139,17 +142,25 @@ impl Tracer<'_> {
             let Some(g) = z.residual.tangent() else {
                 continue;
             };
-            if out.iter().any(|b| self.distance(b.x, z.x) < 1e-7) {
-                continue;
-            }
             let point = Boundary {
                 side,
                 x: z.x,
                 g,
                 consumed: false,
             };
-            out.push_or_count(point, &mut stats.capacity_drops);
+            self.add_boundary(out, point, stats);
         }
+    }
+
+    /// Adds a boundary point unless one within [`SAME_POINT`] of it is known already: a point of
+    /// the curve at a vertex lies on two edges (and perhaps at a range end), and the curve
+    /// through it is one arc, to be traced once. Two arcs that leave the same point would need
+    /// a singular point of the curve there.
+    pub fn add_boundary(&self, out: &mut BoundaryPoints, point: Boundary, stats: &mut RenderStats) {
+        if out.iter().any(|b| self.distance(b.x, point.x) < SAME_POINT) {
+            return;
+        }
+        out.push_or_count(point, &mut stats.capacity_drops);
     }
 
     /// The unit direction of travel `σ·g` in the scaled metric, back in parameter units.
@@ -454,15 +465,49 @@ impl Tracer<'_> {
                 frac(self.range.hi - x.t, self.range.hi - xn.t),
             ),
         ];
-        let (side, theta) =
-            candidates
-                .iter()
-                .copied()
-                .fold((Side::RangeHigh, f64::INFINITY), |best, c| {
-                    if c.1 < best.1 { c } else { best }
-                });
-        let theta = if theta.is_finite() { theta } else { 1.0 };
-        let seed = x.toward(xn, theta);
+        // The sides in the order the chord crosses them. Near an edge or a corner of the region
+        // the chord may cross a side the curve itself does not (the curve bends between x and
+        // xn): then the solve on that side fails, and the next side the chord crosses is tried.
+        let mut order = candidates;
+        order.sort_by(|p, q| p.1.total_cmp(&q.1));
+        let chord = self.distance(x, xn);
+        let mut first_seed = None;
+        for (rank, &(side, theta)) in order.iter().enumerate() {
+            if rank > 0 && !theta.is_finite() {
+                break;
+            }
+            let theta = if theta.is_finite() { theta } else { 1.0 };
+            let seed = x.toward(xn, theta);
+            first_seed.get_or_insert(seed);
+            let Some((found, g_t)) = self.solve_on_side(side, seed, stats) else {
+                continue;
+            };
+            // The first side's solution is taken as it is; another side's must lie on the
+            // region's boundary, not beyond a side the chord crossed first.
+            let on_region = rank == 0
+                || (self.range.contains(found.t)
+                    && self.patch.contains(found.a, found.b, INSIDE_TOLERANCE));
+            if on_region && self.distance(found, seed) <= chord {
+                return Node {
+                    x: found,
+                    g_t: Some(g_t),
+                };
+            }
+        }
+        stats.newton_failures += 1;
+        Node {
+            x: first_seed.unwrap_or(xn),
+            g_t: None,
+        }
+    }
+
+    /// The point of the curve on the region's side `side` nearest to `seed`, with g_t there.
+    fn solve_on_side(
+        &self,
+        side: Side,
+        seed: CurvePoint,
+        stats: &mut RenderStats,
+    ) -> Option<(CurvePoint, f64)> {
         let settings = NewtonSettings::new(self.tolerance, self.range);
         let (zero, spent) = match side {
             Side::Edge(edge) => {
@@ -488,15 +533,6 @@ impl Tracer<'_> {
             }
         };
         stats.newton_iterations += spent as u64;
-        match zero.and_then(|z| z.residual.tangent().map(|g| (z.x, g.t))) {
-            Some((found, g_t)) if self.distance(found, seed) <= self.distance(x, xn) => Node {
-                x: found,
-                g_t: Some(g_t),
-            },
-            _ => {
-                stats.newton_failures += 1;
-                Node { x: seed, g_t: None }
-            }
-        }
+        zero.and_then(|z| z.residual.tangent().map(|g| (z.x, g.t)))
     }
 }
