@@ -40,6 +40,11 @@ fn scene(objects: Value, lights: Value, assets: Assets) -> Scene {
 
 /// A water box (top at z = 0, flat) with a diffuse floor box inside it whose top is at z = −1.
 fn pool(sigma_t: f64, lights: Value) -> Scene {
+    pool_of_index(ETA, sigma_t, lights)
+}
+
+/// [`pool`] with the medium's index `eta`.
+fn pool_of_index(eta: f64, sigma_t: f64, lights: Value) -> Scene {
     let water = box_obj(
         DVec3::new(-20.0, -20.0, -2.0),
         DVec3::new(20.0, 20.0, 0.0),
@@ -53,7 +58,7 @@ fn pool(sigma_t: f64, lights: Value) -> Scene {
     scene(
         json!([
             {"shape": {"type": "obj", "path": "water.obj"},
-             "material": {"type": "dielectric", "eta": ETA, "medium": {
+             "material": {"type": "dielectric", "eta": eta, "medium": {
                  "sigma_t": [sigma_t, sigma_t, sigma_t], "albedo": [0.5, 0.5, 0.5]}}},
             {"shape": {"type": "obj", "path": "floor.obj"},
              "material": {"type": "diffuse", "reflectance": [RHO, RHO, RHO]}}
@@ -172,6 +177,52 @@ fn the_sun_through_a_flat_surface_lights_the_floor_as_energy_conservation_says()
     // the surface's scale, spread below it over d_V ≈ 1.5 by about 2 d_V/(η d_L) ≈ 1e-5 (measured:
     // at most 1.2e-5).
     println!("worst relative error {worst:.2e}");
+    assert!(worst < 2e-5, "worst relative error {worst}");
+}
+
+/// At η = 1 the boundary bends nothing and reflects nothing: the floor under the sun gets
+/// `E cos θ e^{−σ_t d/cos θ}`, from the straight path (and through a point light's, `I cos θ
+/// e^{−σ_t d/cos θ} / r²`).
+#[test]
+fn an_index_matched_medium_lights_its_floor_along_the_straight_path() {
+    let mut worst: f64 = 0.0;
+    for sigma in [0.0, 0.7] {
+        let sun = DVec3::new(0.4, -0.3, -1.0);
+        let light = DVec3::new(0.9, 0.2, 2.0);
+        for (lights, truth_at) in [
+            (
+                json!([{"type": "directional", "direction": sun.to_array(),
+                        "irradiance": [2, 2, 2]}]),
+                Box::new(move |r: DVec3| {
+                    let cos = -sun.normalize().z;
+                    2.0 * cos * (-sigma * (-r.z) / cos).exp()
+                }) as Box<dyn Fn(DVec3) -> f64>,
+            ),
+            (
+                json!([{"type": "point", "position": light.to_array(),
+                        "intensity": [3, 3, 3]}]),
+                Box::new(move |r: DVec3| {
+                    let to = light - r;
+                    let cos = to.normalize().z;
+                    3.0 * cos / to.length_squared() * (-sigma * (-r.z) / cos).exp()
+                }),
+            ),
+        ] {
+            let scene = pool_of_index(1.0, sigma, lights);
+            let r = DVec3::new(-0.4, 0.7, -1.0);
+            let (segment, receiver) = floor_segment(&scene, DVec3::new(-0.2, 0.6, 0.0), r);
+            let mut stats = RenderStats::default();
+            let mut sampler = Sampler::new(1, 0, 0, 0);
+            let value = through_boundary(&scene, &segment, &receiver, &mut sampler, &mut stats);
+            let truth = RHO / PI * truth_at(r);
+            let error = value.x / truth - 1.0;
+            println!(
+                "η = 1, σt {sigma}: {:.8e} vs {truth:.8e} ({error:+.2e})",
+                value.x
+            );
+            worst = worst.max(error.abs());
+        }
+    }
     assert!(worst < 2e-5, "worst relative error {worst}");
 }
 
@@ -733,4 +784,21 @@ fn each_path_through_the_wavy_surface_carries_the_light_of_the_forward_map() {
         "some receivers should lie on the bright side of a fold"
     );
     assert!(worst < 1e-5, "worst relative error {worst}");
+}
+
+/// The plan says which diffuse object lies in which medium and how it is lit.
+#[test]
+fn the_plan_names_the_floor_inside_the_water() {
+    let scene = pool(
+        0.5,
+        json!([{"type": "directional", "direction": [0, 0, -1], "irradiance": [1, 1, 1]}]),
+    );
+    let plan = spindle_render::scatter::describe_plan(&scene);
+    println!("{plan:#?}");
+    assert!(
+        plan.iter().any(|l| l.starts_with(
+            "objects[1]: diffuse, inside objects[0]'s medium: lit by the lights outside it"
+        )),
+        "{plan:?}"
+    );
 }

@@ -196,12 +196,13 @@ fn describe_placement(scene: &Scene) -> Vec<String> {
     lines
 }
 
-/// At most this many vertices of a diffuse object are tested for lying in a medium (evenly
-/// strided), so a large mesh does not make the plan slow.
+/// At most this many vertices, and as many triangle centroids, of a diffuse object are tested
+/// for lying in a medium (evenly strided), so a large mesh does not make the plan slow.
 const RECEIVER_PROBES: usize = 64;
 
-/// One line per diffuse object that lies (at least partly) inside a dielectric's medium: the
-/// lights outside reach it through that boundary (`scatter::receiver`), one interface only.
+/// One line per diffuse object that lies (at least partly, as far as its probed vertices and
+/// centroids tell) inside a dielectric's medium: the lights outside reach it through that
+/// boundary (`scatter::receiver`), one interface only.
 fn describe_receivers(scene: &Scene) -> Vec<String> {
     let objects = scene.objects();
     let mut lines = Vec::new();
@@ -209,15 +210,22 @@ fn describe_receivers(scene: &Scene) -> Vec<String> {
         if !matches!(object.material, Material::Diffuse { .. }) {
             continue;
         }
-        let positions = object.mesh.positions();
-        let stride = positions.len().div_ceil(RECEIVER_PROBES).max(1);
-        let probes: Vec<DVec3> = positions.iter().step_by(stride).copied().collect();
+        let mesh = &object.mesh;
+        let strided = |n: usize| (0..n).step_by(n.div_ceil(RECEIVER_PROBES).max(1));
+        let vertices = strided(mesh.positions().len()).map(|k| mesh.positions()[k]);
+        let centroids = strided(mesh.triangle_count()).map(|k| {
+            let [a, b, c] = mesh.corners(k);
+            (a + b + c) / 3.0
+        });
+        let probes: Vec<DVec3> = vertices.chain(centroids).collect();
         for (o, medium) in objects.iter().enumerate() {
             if !matches!(medium.material, Material::Dielectric(_)) {
                 continue;
             }
+            let (lo, hi) = medium.mesh.bounds();
             let inside = probes
                 .iter()
+                .filter(|&&p| p.cmpge(lo).all() && p.cmple(hi).all())
                 .filter(|&&p| containment::holds(&medium.mesh, p))
                 .count();
             if inside == 0 {
