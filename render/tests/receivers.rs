@@ -802,3 +802,90 @@ fn the_plan_names_the_floor_inside_the_water() {
         "{plan:?}"
     );
 }
+
+/// A floor inside a coarse glass ball (320 triangles, smooth normals: large curved triangles,
+/// on which an arc of the refraction curve may cross a triangle without touching an edge):
+/// every refraction point a brute-force search finds on any triangle, the receiver finds.
+#[test]
+fn the_receiver_finds_every_refraction_point_in_a_coarse_glass_ball() {
+    let floor = box_obj(
+        DVec3::new(-0.5, -0.5, -0.7),
+        DVec3::new(0.5, 0.5, -0.6),
+        false,
+    );
+    let sun = DVec3::new(0.1, 0.05, -1.0);
+    let scene = scene(
+        json!([
+            {"shape": {"type": "icosphere", "radius": 1.0, "subdivisions": 2},
+             "material": {"type": "dielectric", "eta": 1.5, "medium": {
+                 "sigma_t": [0.2, 0.2, 0.2], "albedo": [0.5, 0.5, 0.5]}}},
+            {"shape": {"type": "obj", "path": "floor.obj"},
+             "material": {"type": "diffuse", "reflectance": [RHO, RHO, RHO]}}
+        ]),
+        json!([{"type": "directional", "direction": sun.to_array(), "irradiance": [1, 1, 1]}]),
+        Assets::from([("floor.obj".to_string(), floor.into_bytes())]),
+    );
+    let spindle_render::light::Light::Directional {
+        direction,
+        anchor,
+        distance,
+        ..
+    } = scene.lights()[0]
+    else {
+        panic!("the light is the sun");
+    };
+    let light = anchor - direction * distance;
+    let mesh = &scene.objects()[0].mesh;
+    let side = 15;
+    let counts: Vec<(usize, u64)> = (0..side * side)
+        .into_par_iter()
+        .map(|index| {
+            let (i, j) = (index % side, index / side);
+            let r = DVec3::new(
+                -0.45 + 0.9 * i as f64 / (side - 1) as f64,
+                -0.45 + 0.9 * j as f64 / (side - 1) as f64,
+                -0.6,
+            );
+            let origin = DVec3::new(0.1, -0.2, 0.5);
+            let segment = Segment {
+                origin,
+                dir: (r - origin).normalize(),
+                length: r.distance(origin),
+                object: 0,
+                throughput: Rgb::ONE,
+            };
+            let receiver = Receiver {
+                p: r,
+                normal: DVec3::Z,
+                geometric: DVec3::Z,
+                reflectance: Rgb::splat(RHO),
+            };
+            let mut stats = RenderStats::default();
+            let mut sampler = Sampler::new(3, i as u32, j as u32, 0);
+            through_boundary(&scene, &segment, &receiver, &mut sampler, &mut stats);
+            let ends = PathEnds {
+                origin: segment.origin,
+                dir: segment.dir,
+                light,
+                eta: 1.5,
+            };
+            let mut brute = RenderStats::default();
+            let found: usize = (0..mesh.triangle_count())
+                .filter_map(|t| TrianglePatch::new(mesh.corners(t), mesh.corner_normals(t)))
+                .map(|patch| {
+                    solve_all_at::<8>(&patch, &ends, segment.length, 8, 1e-12, &mut brute).len()
+                })
+                .sum();
+            (found, stats.samples)
+        })
+        .collect();
+    let mut histogram = [0usize; 5];
+    for (i, &(brute, receiver)) in counts.iter().enumerate() {
+        histogram[brute.min(4)] += 1;
+        assert_eq!(
+            brute as u64, receiver,
+            "receiver {i}: brute force finds {brute} refraction points, the receiver {receiver}"
+        );
+    }
+    println!("receivers by refraction points (brute force = receiver) 0/1/2/3/4+: {histogram:?}");
+}

@@ -10,13 +10,15 @@
 //!
 //! How the refraction points are found: `R` is the end of the camera segment that reached it,
 //! `V(t) = origin + t·dir`, `t_R = length`. The descent and the per-triangle search of the
-//! interval method (`prune::descent`, `triangle::branches`) run on that line, over
-//! `[0, t_R + extension]` with [`EXTENSION`] so that `R` lies inside the searched range and the
-//! branches through it are traced from the region's boundary rather than found by a guess at a
-//! range end; every monotone branch whose depth interval holds `t_R` then has exactly one
+//! interval method (`prune::descent`, `triangle::branches`) run on that segment, `[0, t_R]`, with
+//! the same pruning; every monotone branch whose depth interval reaches `t_R` has exactly one
 //! refraction point at `R`, solved at `t_R` from the branch's seeds and kept only on its branch.
-//! The camera line is only a parameter of the search: the points beyond `R` are not in the
-//! medium, and nothing is integrated along it.
+//! `R` is a range end, as the segment's ends are for the interval method: a branch through it is
+//! found by tracing the arc it lies on from the region's boundary (edges, the other range end,
+//! interior lines), or by the solves at the range end. Searching on beyond `R` (so that a fold
+//! just below it joins its two branches into one arc) found no refraction point more against a
+//! brute-force search on the wavy pool and a coarse glass ball (`render/tests/receivers.rs`),
+//! at 2 to 10 times the cost, so it is not done.
 //!
 //! What one path gives (physics.md §1.1, eq. 1, with the receiver in the role of V): the
 //! irradiance across the path at `R`, inside the medium, is `T_P · I · η² · e^{−σ_t d_V} / D`
@@ -56,11 +58,6 @@ use crate::scatter::triangle::ends::{DepthRange, PathEnds};
 use crate::scatter::triangle::solve::{NewtonSettings, RefractionPath, solve_at};
 use crate::scene::{Material, Scene};
 use crate::segment::Segment;
-
-/// The camera line is searched beyond the receiver by this multiple of the segment's length
-/// (see the module doc): a fold of the refraction curve within that reach joins the two branches
-/// that meet there into one traced arc, so neither depends on a starting guess.
-pub const EXTENSION: f64 = 1.0;
 
 /// Relative slack on distances compared along a visibility ray.
 const DISTANCE_SLACK: f64 = 1e-7;
@@ -158,7 +155,7 @@ fn refracted_irradiance(
     if !(depth.is_finite() && depth > 0.0) {
         return Rgb::ZERO;
     }
-    let query = connection.query(DepthRange::new(0.0, depth * (1.0 + EXTENSION)));
+    let query = connection.query(DepthRange::new(0.0, depth));
     let beams = connection.beams();
     let mesh = &connection.object.mesh;
     let newton = NewtonSettings::new(tolerance, DepthRange::new(depth, depth));
