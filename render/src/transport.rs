@@ -20,8 +20,11 @@
 //! the camera measures the radiance inside; leaving the medium multiplies it by `(1 − F)·η²`).
 //! A sphere light inside a medium is seen through it, attenuated.
 //!
-//! Dielectric objects block shadow rays: a diffuse floor under a glass sphere gets no light
-//! through the glass (caustics are not rendered). Objects must not overlap (media do not nest).
+//! Dielectric objects block shadow rays: a diffuse floor under a glass sphere, in the air, gets
+//! no light through the glass (caustics on surfaces in the air are not rendered). A diffuse
+//! surface *inside* a medium (a pool's floor) is lit by the lights outside through the medium's
+//! boundary (`scatter::receiver`), into the `surface` layer. Objects must not overlap (media do
+//! not nest).
 
 use glam::DVec3;
 use spindle_common::stats::RenderStats;
@@ -32,6 +35,7 @@ use crate::fresnel::{reflect, reflectance, refract};
 use crate::ray::Ray;
 use crate::sampler::Sampler;
 use crate::scatter;
+use crate::scatter::receiver::Receiver;
 use crate::scene::{Material, Scene};
 use crate::segment::Segment;
 
@@ -190,19 +194,35 @@ fn interact(
     let shading = mesh.shading_normal(triangle, hit.a, hit.b);
     match scene.objects()[object].material {
         Material::Diffuse { reflectance } => {
-            out.surface += state.throughput
-                * direct_diffuse(
-                    scene,
-                    &DiffuseHit {
-                        p,
-                        geometric,
-                        shading,
-                        incoming: ray.dir,
-                        reflectance,
-                    },
-                    sampler,
-                    stats,
-                );
+            let diffuse = DiffuseHit {
+                p,
+                geometric,
+                shading,
+                incoming: ray.dir,
+                reflectance,
+            };
+            out.surface += state.throughput * direct_diffuse(scene, &diffuse, sampler, stats);
+            // Inside a medium, the lights outside it reach the surface through its boundary.
+            if let Some(medium) = state.inside {
+                let segment = Segment {
+                    origin: ray.origin,
+                    dir: ray.dir,
+                    length: hit.t,
+                    object: medium,
+                    throughput: state.throughput,
+                };
+                let (normal, geometric) = diffuse.facing_camera();
+                let receiver = Receiver {
+                    p,
+                    normal,
+                    geometric,
+                    reflectance,
+                };
+                out.surface += state.throughput
+                    * scatter::receiver::through_boundary(
+                        scene, &segment, &receiver, sampler, stats,
+                    );
+            }
         }
         Material::Dielectric(dielectric) => {
             if state.depth >= scene.integrator().max_depth {
@@ -280,6 +300,18 @@ struct DiffuseHit {
     reflectance: Rgb,
 }
 
+impl DiffuseHit {
+    /// The shading and geometric normals turned to the side the camera sees (the surface is
+    /// two-sided).
+    fn facing_camera(&self) -> (DVec3, DVec3) {
+        if self.incoming.dot(self.geometric) < 0.0 {
+            (self.shading, self.geometric)
+        } else {
+            (-self.shading, -self.geometric)
+        }
+    }
+}
+
 /// Radiance leaving a Lambertian surface at `p` toward the camera, lit directly by every light
 /// (one sample each), with shadow rays against all geometry (dielectrics included).
 fn direct_diffuse(
@@ -288,19 +320,8 @@ fn direct_diffuse(
     sampler: &mut Sampler,
     stats: &mut RenderStats,
 ) -> Rgb {
-    let DiffuseHit {
-        p,
-        geometric,
-        shading,
-        incoming,
-        reflectance,
-    } = *hit;
-    // Two-sided: light the side the camera sees.
-    let (n, ng) = if incoming.dot(geometric) < 0.0 {
-        (shading, geometric)
-    } else {
-        (-shading, -geometric)
-    };
+    let DiffuseHit { p, reflectance, .. } = *hit;
+    let (n, ng) = hit.facing_camera();
     let mut sum = Rgb::ZERO;
     for light in scene.lights() {
         // Always draw the numbers, so later dimensions do not depend on visibility.

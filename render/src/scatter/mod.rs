@@ -9,6 +9,8 @@
 //!
 //! Three wings: [`triangle`], the per-triangle mathematics in f64, independent of the scene;
 //! [`prune`], the conservative culling of triangles and BVH nodes; [`methods`], the estimators.
+//! [`receiver`] uses the same solve and pruning for a diffuse surface inside a medium, lit
+//! through the boundary (surface light, not single scattering).
 //!
 //! A light inside the segment's own medium needs no refraction at all (`methods::in_medium`,
 //! whatever the plan); one inside another medium would need two interfaces and gives nothing
@@ -23,6 +25,7 @@ pub mod light_sample;
 pub mod methods;
 pub mod plan;
 pub mod prune;
+pub mod receiver;
 pub mod triangle;
 
 use spindle_common::stats::RenderStats;

@@ -18,6 +18,9 @@
 
 use spindle_common::scene::ScatterMethod;
 
+use glam::DVec3;
+
+use crate::containment;
 use crate::light::{FAR, Light};
 use crate::scatter::geometry::BoundingSphere;
 use crate::scene::{Material, Object, Scene};
@@ -163,6 +166,7 @@ fn describe_placement(scene: &Scene) -> Vec<String> {
             "camera: inside objects[{o}] (camera paths start in its medium)"
         ));
     }
+    lines.extend(describe_receivers(scene));
     for (j, light) in scene.lights().iter().enumerate() {
         if let Light::Directional {
             anchor, distance, ..
@@ -197,6 +201,56 @@ fn describe_placement(scene: &Scene) -> Vec<String> {
             "lights[{j}]: inside objects[{o}] (lights its medium along straight paths, no \
              interface{unlit})"
         ));
+    }
+    lines
+}
+
+/// At most this many vertices, and as many triangle centroids, of a diffuse object are tested
+/// for lying in a medium (evenly strided), so a large mesh does not make the plan slow.
+const RECEIVER_PROBES: usize = 64;
+
+/// One line per diffuse object that lies (at least partly, as far as its probed vertices and
+/// centroids tell) inside a dielectric's medium: the lights outside reach it through that
+/// boundary (`scatter::receiver`), one interface only.
+fn describe_receivers(scene: &Scene) -> Vec<String> {
+    let objects = scene.objects();
+    let mut lines = Vec::new();
+    for (i, object) in objects.iter().enumerate() {
+        if !matches!(object.material, Material::Diffuse { .. }) {
+            continue;
+        }
+        let mesh = &object.mesh;
+        let strided = |n: usize| (0..n).step_by(n.div_ceil(RECEIVER_PROBES).max(1));
+        let vertices = strided(mesh.positions().len()).map(|k| mesh.positions()[k]);
+        let centroids = strided(mesh.triangle_count()).map(|k| {
+            let [a, b, c] = mesh.corners(k);
+            (a + b + c) / 3.0
+        });
+        let probes: Vec<DVec3> = vertices.chain(centroids).collect();
+        for (o, medium) in objects.iter().enumerate() {
+            if !matches!(medium.material, Material::Dielectric(_)) {
+                continue;
+            }
+            let (lo, hi) = medium.mesh.bounds();
+            let inside = probes
+                .iter()
+                .filter(|&&p| p.cmpge(lo).all() && p.cmple(hi).all())
+                .filter(|&&p| containment::holds(&medium.mesh, p))
+                .count();
+            if inside == 0 {
+                continue;
+            }
+            let share = if inside == probes.len() {
+                "inside"
+            } else {
+                "partly inside"
+            };
+            lines.push(format!(
+                "objects[{i}]: diffuse, {share} objects[{o}]'s medium: lit by the lights outside \
+                 it through its boundary (every refraction point, one interface; a light in \
+                 another medium gives nothing)"
+            ));
+        }
     }
     lines
 }
