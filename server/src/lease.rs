@@ -36,6 +36,7 @@ use crate::jobs::{
     JOB_FAILURE_LIMIT, Job, Ledger, TILE_FAILURE_LIMIT, TileStatus, WORKER_STRIKE_LIMIT, now_ms,
 };
 use spindle_common::protocol::TileError;
+use spindle_common::tile::TileRect;
 
 /// What to do with an upload that passed the checks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -317,6 +318,47 @@ impl Ledger {
                 tile.epoch, hb.epoch, hb.worker_id
             ))),
         }
+    }
+
+    /// Decides whether `worker` may upload tile `index` of job `id` at all, from the request's
+    /// path and headers alone, before its body is read: the job exists and takes tiles, and
+    /// the tile is done (a late duplicate, judged once read) or its latest lease is `worker`'s
+    /// (at `epoch`, when the upload names it). Returns the tile's rectangle, which bounds the
+    /// body. So an upload for no job, or for another worker's tile, costs nothing to refuse.
+    pub fn admit_upload(
+        &self,
+        id: u64,
+        index: u32,
+        worker: u64,
+        epoch: Option<u64>,
+    ) -> Result<TileRect, Error> {
+        let job = self.job(id)?;
+        check_index(job, index)?;
+        if job.state.is_finished() {
+            return Err(Error::Conflict(format!(
+                "job {id} is {}",
+                job.state.as_str()
+            )));
+        }
+        let tile = &job.tiles[index as usize];
+        if tile.status != TileStatus::Done {
+            if !job.is_active() {
+                return Err(Error::Conflict(format!(
+                    "job {id} is {}",
+                    job.state.as_str()
+                )));
+            }
+            if tile.worker != Some(worker) || epoch.is_some_and(|e| e != tile.epoch) {
+                return Err(Error::Conflict(format!(
+                    "stale lease: tile {index} of job {id} is at epoch {} of worker {}, not \
+                     leased to worker {worker}{}",
+                    tile.epoch,
+                    tile.worker.map_or("none".to_string(), |w| w.to_string()),
+                    epoch.map_or(String::new(), |e| format!(" at epoch {e}")),
+                )));
+            }
+        }
+        Ok(job.rects[index as usize])
     }
 
     /// Checks an upload against the job and the tile's lease. `upload.hash` must already be

@@ -191,7 +191,7 @@ fn routes_and_document(state: &AppState) -> (Router<AppState>, utoipa::openapi::
         tiles::routes(),
         events::routes(),
         workers::routes(),
-        work::routes(limits),
+        work::routes(),
     ]
     .into_iter()
     .flatten()
