@@ -25,6 +25,7 @@ pub mod limits;
 pub mod logging;
 pub mod metrics;
 pub mod passes;
+pub mod peers;
 pub mod retention;
 pub mod serve;
 pub mod throttle;
