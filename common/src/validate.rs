@@ -26,6 +26,12 @@ pub const MAX_TIME_BUDGET_S: f64 = 7.0 * 24.0 * 3600.0;
 /// scene, so a scene must fit in a range where both stay meaningful; ±10⁶ leaves f32 boxes
 /// resolving 0.1 at the edge and f64 solves 10 digits to spare.
 pub const MAX_COORDINATE: f64 = 1e6;
+
+/// The most corners one OBJ face (`f v1 v2 … vn`) may have. A face is triangulated as a polygon,
+/// whose cost grows faster than its corners (one face line of 10,000 corners took 9.6 s to
+/// build); meshes from modelling tools have faces of 3 or 4 corners, and rarely more than a
+/// few dozen.
+pub const MAX_FACE_CORNERS: usize = 64;
 /// The smallest length accepted (radii), and the smallest absolute scale factor.
 pub const MIN_LENGTH: f64 = 1e-6;
 /// The largest absolute scale factor of a transform.
