@@ -621,5 +621,33 @@ fn cross(a: Vec3, b: Vec3) -> Vec3 {
     ]
 }
 
+/// Triangles an OBJ file describes: a face line `f v1 v2 … vn` is a fan of n − 2 triangles.
+/// A face of more than [`MAX_FACE_CORNERS`] corners is refused, naming its line.
+pub fn count_obj_triangles(bytes: &[u8]) -> Result<u64, String> {
+    let mut triangles = 0u64;
+    for (n, line) in bytes.split(|&b| b == b'\n').enumerate() {
+        let line = line.trim_ascii_start();
+        let Some(rest) = line.strip_prefix(b"f") else {
+            continue;
+        };
+        if !rest.first().is_some_and(|b| b.is_ascii_whitespace()) {
+            continue; // `fo …` or a bare `f` is not a face.
+        }
+        let corners = rest
+            .split(|b| b.is_ascii_whitespace())
+            .filter(|t| !t.is_empty())
+            .count();
+        if corners > MAX_FACE_CORNERS {
+            return Err(format!(
+                "line {}: a face of {corners} corners; at most {MAX_FACE_CORNERS} (split it into \
+                 smaller faces)",
+                n + 1
+            ));
+        }
+        triangles += corners.saturating_sub(2) as u64;
+    }
+    Ok(triangles)
+}
+
 #[cfg(test)]
 mod tests;

@@ -7,7 +7,7 @@
 
 use spindle_common::scene::{SceneDescription, Shape};
 use spindle_common::tile::TileRect;
-use spindle_common::validate::MAX_FACE_CORNERS;
+pub use spindle_common::validate::count_obj_triangles;
 
 /// The coordinator's limits.
 #[derive(Debug, Clone, PartialEq)]
@@ -139,34 +139,6 @@ pub fn icosphere_triangles(subdivisions: u32) -> Option<u64> {
     4u64.checked_pow(subdivisions)?.checked_mul(20)
 }
 
-/// Triangles an OBJ file describes: a face line `f v1 v2 … vn` is a fan of n − 2 triangles.
-/// A face of more than [`MAX_FACE_CORNERS`] corners is refused, naming its line.
-pub fn count_obj_triangles(bytes: &[u8]) -> Result<u64, String> {
-    let mut triangles = 0u64;
-    for (n, line) in bytes.split(|&b| b == b'\n').enumerate() {
-        let line = line.trim_ascii_start();
-        let Some(rest) = line.strip_prefix(b"f") else {
-            continue;
-        };
-        if !rest.first().is_some_and(|b| b.is_ascii_whitespace()) {
-            continue; // `fo …` or a bare `f` is not a face.
-        }
-        let corners = rest
-            .split(|b| b.is_ascii_whitespace())
-            .filter(|t| !t.is_empty())
-            .count();
-        if corners > MAX_FACE_CORNERS {
-            return Err(format!(
-                "line {}: a face of {corners} corners; at most {MAX_FACE_CORNERS} (split it into \
-                 smaller faces)",
-                n + 1
-            ));
-        }
-        triangles += corners.saturating_sub(2) as u64;
-    }
-    Ok(triangles)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -177,29 +149,5 @@ mod tests {
         assert_eq!(icosphere_triangles(1), Some(80));
         assert_eq!(icosphere_triangles(5), Some(20_480));
         assert_eq!(icosphere_triangles(40), None);
-    }
-
-    #[test]
-    fn obj_faces_are_counted_as_fans() {
-        let obj = b"# a quad and a triangle\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n\
-                    f 1 2 3 4\r\n  f 1/1/1 2/2/2 3/3/3\nfo 1 2 3\nvn 0 0 1\nf\n";
-        assert_eq!(count_obj_triangles(obj), Ok(2 + 1));
-        assert_eq!(count_obj_triangles(b""), Ok(0));
-    }
-
-    /// A fan face of N corners made the scene build quadratic (9.6 s at N = 10,000): such a
-    /// face is refused by the count, naming its line; one at the bound is counted.
-    #[test]
-    fn a_face_of_too_many_corners_is_refused_naming_its_line() {
-        let fan = |n: usize| format!("v 0 0 0\nv 1 0 0\nf{}\n", " 1".repeat(n));
-        assert_eq!(
-            count_obj_triangles(fan(MAX_FACE_CORNERS).as_bytes()),
-            Ok(MAX_FACE_CORNERS as u64 - 2)
-        );
-        let e = count_obj_triangles(fan(10_000).as_bytes()).unwrap_err();
-        assert_eq!(
-            e,
-            "line 3: a face of 10000 corners; at most 64 (split it into smaller faces)"
-        );
     }
 }
