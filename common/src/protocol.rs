@@ -716,6 +716,11 @@ pub struct WorkerRegistered {
 /// route but registration; missing or wrong, the answer is 403.
 pub const WORKER_SECRET_HEADER: &str = "spindle-worker-secret";
 
+/// The header of a tile upload naming the epoch of the lease it answers
+/// ([`TileUpload::epoch`]), so the coordinator can refuse an upload for a lease that is not
+/// the worker's before reading its body (409). Optional; when given it must match the body's.
+pub const LEASE_EPOCH_HEADER: &str = "spindle-lease-epoch";
+
 /// Options of a lease request; an empty body means the defaults.
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
 #[serde(default, deny_unknown_fields)]
@@ -838,6 +843,42 @@ impl TileUpload {
     }
 }
 
+impl TileUpload {
+    /// The most bytes the MessagePack form ([`crate::tile_encoding`], before compression) of
+    /// an upload of `rect` can take: every layer value as an f64 (9 bytes; a worker writes
+    /// f32, 5 bytes), a progressive pass's sums for every pixel, and a provenance of
+    /// [`crate::provenance::MAX_LINES`] lines of the longest length. The coordinator refuses an
+    /// upload whose body inflates past it before parsing anything, so what one upload can
+    /// cost in memory is set by the tile's size, not by the body.
+    pub fn max_packed_bytes(rect: TileRect) -> usize {
+        const VALUE: usize = 9;
+        // A pixel's `PixelSums`: 14 numbers, its field names and headers (196 bytes as
+        // written, every number as an f64 or u64).
+        const PIXEL_SUMS: usize = 256;
+        let values = rect.pixel_count() * 3 * LAYER_COUNT;
+        values * VALUE + rect.pixel_count() * PIXEL_SUMS + UPLOAD_FIXED_BYTES
+    }
+
+    /// The most bytes the JSON form of an upload of `rect` can take (`serde_json`'s writing:
+    /// at most 24 characters and a comma per number).
+    pub fn max_json_bytes(rect: TileRect) -> usize {
+        const VALUE: usize = 32;
+        const PIXEL_SUMS: usize = 512;
+        let values = rect.pixel_count() * 3 * LAYER_COUNT;
+        // A provenance line's characters written as `\u00XX` escapes take 6 bytes each.
+        values * VALUE + rect.pixel_count() * PIXEL_SUMS + 6 * UPLOAD_FIXED_BYTES
+    }
+}
+
+/// The layers of a tile ([`crate::tile::LAYER_NAMES`]).
+const LAYER_COUNT: usize = crate::tile::LAYER_NAMES.len();
+
+/// The bytes of an upload beside its pixel values: the provenance (two lists of
+/// [`crate::provenance::MAX_LINES`] lines of [`crate::provenance::MAX_LINE_BYTES`], and the
+/// renderer's name), the statistics, the hash and the field names, with room to spare.
+const UPLOAD_FIXED_BYTES: usize =
+    (2 * crate::provenance::MAX_LINES + 1) * (crate::provenance::MAX_LINE_BYTES + 8) + 16 * 1024;
+
 /// How the coordinator took a tile upload.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
 #[serde(rename_all = "snake_case")]
@@ -916,6 +957,87 @@ pub fn is_hash(s: &str) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The largest upload a worker can honestly send (the largest tile, with a pass's sums,
+    /// numbers of the longest written form that do not compress, every statistic at
+    /// `u64::MAX`, the longest provenance) fits both bounds, in each form and compressed.
+    #[test]
+    fn the_largest_honest_upload_fits_the_bounds() {
+        let rect = TileRect {
+            x: 0,
+            y: 0,
+            width: 256,
+            height: 256,
+        };
+        let mut pixels = TilePixels::black(rect);
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for layer in [
+            &mut pixels.total,
+            &mut pixels.surface,
+            &mut pixels.single_scatter,
+            &mut pixels.stderr,
+        ] {
+            for v in layer.iter_mut() {
+                *v = -f32::from_bits((next() as u32 & 0x007f_ffff) | 0x0080_0000);
+            }
+        }
+        let mut stats = serde_json::to_value(RenderStats::default()).unwrap();
+        for v in stats.as_object_mut().unwrap().values_mut() {
+            *v = serde_json::Value::from(u64::MAX);
+        }
+        pixels.stats = serde_json::from_value(stats).unwrap();
+        let mut long_f64 = || -f64::from_bits((next() & 0x000f_ffff_ffff_ffff) | 1 << 52);
+        let sums = (0..rect.pixel_count())
+            .map(|_| crate::passes::PixelSums {
+                surface: [long_f64(), long_f64(), long_f64()],
+                single_scatter: [long_f64(), long_f64(), long_f64()],
+                mean: [long_f64(), long_f64(), long_f64()],
+                m2: [long_f64(), long_f64(), long_f64()],
+                mean_y: long_f64(),
+                m2_y: long_f64(),
+                taken: u32::MAX,
+                converged: true,
+            })
+            .collect();
+        pixels.progress = Some(crate::passes::TileProgress {
+            pass: u32::MAX,
+            spp: u32::MAX,
+            pixels: sums,
+        });
+        // Quotes and backslashes: two bytes each in JSON.
+        let line = "\"\\".repeat(crate::provenance::MAX_LINE_BYTES / 2);
+        let lines = vec![line.clone(); crate::provenance::MAX_LINES];
+        let provenance = Provenance::new(&line, u64::MAX, u64::MAX, u64::MAX, &lines, &lines);
+        provenance.check().unwrap();
+        let upload = TileUpload {
+            worker_id: u64::MAX,
+            epoch: u64::MAX,
+            hash: pixel_hash(&pixels),
+            pixels,
+            render_seconds: Some(MAX_RENDER_SECONDS / 3.0),
+            provenance: Some(provenance),
+        };
+        let packed = rmp_serde::to_vec_named(&upload).unwrap().len();
+        let compressed = crate::tile_encoding::encode(&upload).unwrap().len();
+        let json = serde_json::to_vec(&upload).unwrap().len();
+        let (max_packed, max_json) = (
+            TileUpload::max_packed_bytes(rect),
+            TileUpload::max_json_bytes(rect),
+        );
+        assert!(packed <= max_packed, "{packed} > {max_packed}");
+        assert!(compressed <= max_packed, "{compressed} > {max_packed}");
+        assert!(json <= max_json, "{json} > {max_json}");
+        // And the bounds are not loose by more than the f64 allowance: a fraction of the 16 MiB
+        // route limit they replace.
+        assert!(max_packed < 2 * packed, "{max_packed} vs {packed}");
+        assert!(max_json < 2 * json, "{max_json} vs {json}");
+    }
 
     fn tile() -> TilePixels {
         let mut t = TilePixels::black(TileRect {

@@ -12,6 +12,7 @@
 //! often less); a context carries no data from one call to the next.
 
 use std::cell::RefCell;
+use std::io::Read;
 
 use serde::Serialize;
 use serde::de::DeserializeOwned;
@@ -51,27 +52,52 @@ pub fn encode<T: Serialize>(value: &T) -> Result<Vec<u8>, EncodingError> {
 
 /// Reads a value written by [`encode`], refusing a body that inflates past `limit` bytes, and
 /// naming the path of a bad field (`pixels.total: value 4 is 1e39, beyond the range …`).
+///
+/// The body is inflated by zstd's streaming decoder read through [`Read::take`]: the buffer
+/// grows with what the body really holds, never to `limit` up front, and the decoder's window
+/// is bounded by `limit` too (a frame that declares a larger window is refused), so a small
+/// body that claims to inflate to gigabytes costs at most `limit` bytes before it is refused.
 pub fn decode<T: DeserializeOwned>(bytes: &[u8], limit: usize) -> Result<T, EncodingError> {
     thread_local! {
-        static DECOMPRESSOR: RefCell<Option<zstd::bulk::Decompressor<'static>>> = const { RefCell::new(None) };
+        static DECOMPRESSOR: RefCell<Option<zstd::zstd_safe::DCtx<'static>>> = const { RefCell::new(None) };
     }
-    let packed = DECOMPRESSOR
-        .with_borrow_mut(|decompressor| {
-            let context = match decompressor {
-                Some(context) => context,
-                None => decompressor.insert(zstd::bulk::Decompressor::new()?),
-            };
-            let packed = context.decompress(bytes, limit);
-            if packed.is_err() {
+    let refused = |e: &dyn std::fmt::Display| {
+        EncodingError(format!(
+            "body: not a zstd frame of at most {limit} bytes when decompressed ({e})"
+        ))
+    };
+    let packed = DECOMPRESSOR.with_borrow_mut(|decompressor| {
+        let context = match decompressor {
+            Some(context) => context,
+            None => decompressor
+                .insert(zstd::zstd_safe::DCtx::try_create().ok_or_else(|| refused(&"no memory"))?),
+        };
+        // The window holds at most the whole frame; a frame of `limit` bytes needs no more
+        // than the next power of two (zstd's smallest window is 2^10 bytes).
+        let window_log = (usize::BITS - limit.saturating_sub(1).leading_zeros()).clamp(10, 30);
+        // Parameters change only between frames: end whatever the last call left first.
+        context
+            .reset(zstd::zstd_safe::ResetDirective::SessionOnly)
+            .and_then(|_| {
+                context.set_parameter(zstd::zstd_safe::DParameter::WindowLogMax(window_log))
+            })
+            .map_err(|code| refused(&zstd::zstd_safe::get_error_name(code)))?;
+        let mut packed = Vec::new();
+        let read = zstd::stream::read::Decoder::with_context(bytes, context)
+            .take(limit as u64 + 1)
+            .read_to_end(&mut packed);
+        match read {
+            Err(e) => {
                 *decompressor = None; // Never reuse a context an error left behind.
+                Err(refused(&e))
             }
-            packed
-        })
-        .map_err(|e| {
-            EncodingError(format!(
-                "body: not a zstd frame of at most {limit} bytes when decompressed ({e})"
-            ))
-        })?;
+            Ok(_) if packed.len() > limit => {
+                *decompressor = None;
+                Err(refused(&"it inflates past that"))
+            }
+            Ok(_) => Ok(packed),
+        }
+    })?;
     // Tracking the path costs about a tenth of a tile's handling; only a refused value needs it.
     let mut rest = packed.as_slice();
     if let Ok(value) = T::deserialize(&mut rmp_serde::Deserializer::new(&mut rest))

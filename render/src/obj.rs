@@ -39,6 +39,9 @@ pub struct ObjMesh {
 /// [`parse_obj`]; a file without normals is smoothed only across edges where its faces meet
 /// at less than `crease` radians when given (see [`TriangleMesh::with_crease`]).
 pub fn parse_obj_with(bytes: &[u8], crease: Option<f64>) -> Result<ObjMesh, ObjError> {
+    // A face of many corners makes the triangulation below quadratic: refused first, by the
+    // bound the coordinator checks at submission.
+    spindle_common::validate::count_obj_triangles(bytes).map_err(ObjError::Parse)?;
     let options = tobj::LoadOptions {
         single_index: true,
         triangulate: true,

@@ -186,7 +186,8 @@ impl AssetStore {
         .await
         .map_err(anyhow::Error::from)?;
         let count = match count {
-            Ok(n) => n,
+            Ok(Ok(n)) => n,
+            Ok(Err(problem)) => return Err(Error::BadRequest(problem)),
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
                 return Err(Error::BadRequest(format!(
                     "asset {hash} is not uploaded (PUT /v1/assets/{hash} first)"

@@ -68,6 +68,10 @@ pub struct Args {
     /// descriptors kept for the coordinator itself). Further connections wait to be accepted.
     #[arg(long, env = "SPINDLE_MAX_CONNECTIONS", default_value_t = DEFAULT_MAX_CONNECTIONS)]
     pub max_connections: usize,
+    /// Most connections open at once from one IP address; a further one is closed at once, so
+    /// one address cannot take every slot. Raise it for many workers behind one NAT address.
+    #[arg(long, env = "SPINDLE_MAX_CONNECTIONS_PER_ADDRESS", default_value_t = DEFAULT_MAX_CONNECTIONS_PER_ADDRESS)]
+    pub max_connections_per_address: usize,
     /// Requests a second (on average; bursts of twice that) each client address may send to
     /// the client routes; past it, 429 with Retry-After.
     #[arg(long, env = "SPINDLE_CLIENT_RATE", default_value_t = DEFAULT_CLIENT_RATE_PER_S)]
@@ -123,6 +127,9 @@ pub const DEFAULT_MAX_WORKERS: usize = 1024;
 
 /// Default of `--max-connections`.
 pub const DEFAULT_MAX_CONNECTIONS: usize = 1024;
+/// [`Args::max_connections_per_address`] by default: a sixteenth of the default cap, several
+/// times what a worker (a lease poll and an upload) or a dashboard holds.
+pub const DEFAULT_MAX_CONNECTIONS_PER_ADDRESS: usize = 64;
 
 /// How long a connection may take over each part of a request (see [`crate::serve`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -170,6 +177,8 @@ pub struct Config {
     pub timeouts: Timeouts,
     /// Most connections open at once (lowered at start to fit the open-file limit).
     pub max_connections: usize,
+    /// Most connections open at once from one IP address ([`crate::peers`]).
+    pub max_connections_per_address: usize,
     /// Requests a second each client address may send to client routes (bursts of twice).
     pub client_rate_per_s: std::num::NonZeroU32,
     /// Leases one worker may hold at once.
@@ -220,6 +229,7 @@ impl Config {
             limits: Limits::default(),
             timeouts: Timeouts::default(),
             max_connections: DEFAULT_MAX_CONNECTIONS,
+            max_connections_per_address: DEFAULT_MAX_CONNECTIONS_PER_ADDRESS,
             client_rate_per_s: std::num::NonZeroU32::new(DEFAULT_CLIENT_RATE_PER_S)
                 .expect("a positive default"),
             max_leases_per_worker: DEFAULT_MAX_LEASES_PER_WORKER,
@@ -320,6 +330,9 @@ impl Args {
         if self.max_connections == 0 {
             bail!("--max-connections: must be at least 1");
         }
+        if self.max_connections_per_address == 0 {
+            bail!("--max-connections-per-address: must be at least 1");
+        }
         let Some(client_rate_per_s) = std::num::NonZeroU32::new(self.client_rate_per_s) else {
             bail!("--client-rate-per-s: must be at least 1");
         };
@@ -351,6 +364,7 @@ impl Args {
             limits,
             timeouts,
             max_connections: self.max_connections,
+            max_connections_per_address: self.max_connections_per_address,
             client_rate_per_s,
             max_leases_per_worker: self.max_leases_per_worker,
             max_workers: self.max_workers,

@@ -42,6 +42,25 @@ fn bytes_rejection(e: BytesRejection) -> Error {
     Error::BadRequest(format!("body: {}", e.body_text()))
 }
 
+/// Reads `body` whole, refusing it with 413 once it passes `limit` bytes (without reading
+/// further): for a route whose limit depends on what the path names ([`crate::api`]'s tile
+/// upload), decided before any of the body is read.
+pub async fn read_body(body: axum::body::Body, limit: usize) -> Result<Bytes, Error> {
+    axum::body::to_bytes(body, limit).await.map_err(|e| {
+        let mut source: Option<&(dyn std::error::Error + 'static)> = Some(&e);
+        while let Some(s) = source {
+            if s.is::<http_body_util::LengthLimitError>() {
+                return Error::TooLarge(format!("body: larger than {limit} bytes"));
+            }
+            if s.is::<tower_http::timeout::TimeoutError>() {
+                return Error::Timeout("body: not received in time".into());
+            }
+            source = s.source();
+        }
+        Error::BadRequest(format!("body: {e}"))
+    })
+}
+
 /// A JSON body of type `T`.
 pub struct JsonBody<T>(pub T);
 

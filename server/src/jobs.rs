@@ -38,6 +38,16 @@ pub const WORKER_STRIKE_LIMIT: usize = 3;
 /// Tile failures, over all tiles and workers, that fail a job: a job whose tiles keep failing
 /// on different workers is broken even if no single tile reached [`TILE_FAILURE_LIMIT`].
 pub const JOB_FAILURE_LIMIT: usize = 10;
+/// Distinct workers that must report a tile's failure as deterministic ("no worker could do
+/// better") before the job fails for it: one worker's word is a claim, which any registered
+/// identity could make about anyone's job.
+pub const DETERMINISTIC_CONFIRMATIONS: usize = 2;
+/// A lease's greatest age, in lease TTLs, however often it is renewed, while the job has no
+/// measured tile ([`Ledger::max_lease_age`]).
+pub const MAX_LEASE_AGE_TTLS: u32 = 20;
+/// A lease's greatest age, in multiples of the slowest render time measured on the job's
+/// finished tiles, when that is longer.
+pub const MAX_LEASE_AGE_RENDERS: f64 = 8.0;
 
 /// Every job and worker the coordinator knows, with the database they are stored in.
 pub struct Ledger {
@@ -152,6 +162,9 @@ pub struct Job {
     pub noise: NoiseSums,
     /// Tile → workers that failed it.
     pub failed_by: HashMap<u32, BTreeSet<u64>>,
+    /// Tile → workers that reported it cannot be rendered anywhere (a deterministic failure,
+    /// [`DETERMINISTIC_CONFIRMATIONS`] of which fail the job). Since this process started.
+    pub deterministic_by: HashMap<u32, BTreeSet<u64>>,
     /// Worker → tiles of this job it failed.
     pub strikes: HashMap<u64, BTreeSet<u32>>,
     /// Tile failures recorded for this job, in total.
@@ -234,6 +247,7 @@ impl Job {
             stats: RenderStats::default(),
             noise: NoiseSums::default(),
             failed_by: HashMap::new(),
+            deterministic_by: HashMap::new(),
             strikes: HashMap::new(),
             failures: 0,
             recent_errors: VecDeque::new(),
@@ -324,6 +338,7 @@ impl Job {
         self.tiles = Vec::new();
         self.rects = Vec::new();
         self.failed_by = HashMap::new();
+        self.deterministic_by = HashMap::new();
         self.strikes = HashMap::new();
         if let Some(passes) = &mut self.passes {
             passes.release();
@@ -776,6 +791,7 @@ impl Ledger {
         job.started_ms = None;
         job.finished_ms = None;
         job.failed_by.clear();
+        job.deterministic_by.clear();
         job.strikes.clear();
         job.failures = 0;
         job.recent_errors.clear();

@@ -12,8 +12,13 @@
 //!   hash is refused (409) and logged as a determinism fault.
 //! - A worker that fails a tile is not given that tile again; a worker that failed
 //!   [`WORKER_STRIKE_LIMIT`] tiles of a job is given no more of that job's tiles.
-//! - A job fails, with the reason, when one of its tiles fails deterministically (the worker
-//!   says no worker could do better: the scene does not build, the pixels overflow f32), when a
+//! - A lease lapses, too, once it is older than [`Ledger::max_lease_age`], however often it was
+//!   renewed: a worker that only sends heartbeats cannot keep a tile for ever. The tile goes
+//!   back to the queue, the holder's late result is no longer taken, and the holder is not
+//!   given that tile again.
+//! - A job fails, with the reason, when [`DETERMINISTIC_CONFIRMATIONS`] different workers
+//!   report a tile's failure as deterministic (each says no worker could do better: the scene
+//!   does not build, the pixels overflow f32 — one worker's word is only a claim), when a
 //!   tile failed on [`TILE_FAILURE_LIMIT`] different workers, when [`JOB_FAILURE_LIMIT`] tile
 //!   failures add up in the job, or when no connected worker may take a tile that failed (every
 //!   connected worker failed it or is kept off the job). With no worker connected at all, jobs
@@ -33,9 +38,11 @@ use tokio::time::Instant;
 use crate::db;
 use crate::error::Error;
 use crate::jobs::{
-    JOB_FAILURE_LIMIT, Job, Ledger, TILE_FAILURE_LIMIT, TileStatus, WORKER_STRIKE_LIMIT, now_ms,
+    DETERMINISTIC_CONFIRMATIONS, JOB_FAILURE_LIMIT, Job, Ledger, MAX_LEASE_AGE_RENDERS,
+    MAX_LEASE_AGE_TTLS, TILE_FAILURE_LIMIT, TileStatus, WORKER_STRIKE_LIMIT, now_ms,
 };
 use spindle_common::protocol::TileError;
+use spindle_common::tile::TileRect;
 
 /// What to do with an upload that passed the checks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -156,8 +163,40 @@ impl Ledger {
             .join(", ")
     }
 
-    /// Returns lapsed leases to the queue.
+    /// The greatest age of a lease of `job`: [`MAX_LEASE_AGE_TTLS`] lease TTLs, or
+    /// [`MAX_LEASE_AGE_RENDERS`] times the slowest render its finished tiles reported, if longer.
+    pub fn max_lease_age(&self, job: &Job) -> std::time::Duration {
+        let floor = self.lease_ttl * MAX_LEASE_AGE_TTLS;
+        let slowest = job
+            .tiles
+            .iter()
+            .filter_map(|t| t.render_seconds)
+            .fold(0.0f64, f64::max);
+        floor.max(std::time::Duration::from_secs_f64(
+            (slowest * MAX_LEASE_AGE_RENDERS).min(1e9),
+        ))
+    }
+
+    /// Returns lapsed leases to the queue, and takes back those past their greatest age.
     pub fn expire_leases(&mut self, now: Instant) {
+        let ids: Vec<u64> = self.jobs.keys().copied().collect();
+        for id in ids {
+            let max_age = self.max_lease_age(&self.jobs[&id]);
+            let job = self.jobs.get_mut(&id).expect("listed above");
+            let overdue: Vec<u32> = job
+                .leased
+                .iter()
+                .copied()
+                .filter(|&i| {
+                    job.tiles[i as usize]
+                        .leased_at
+                        .is_some_and(|at| now.saturating_duration_since(at) >= max_age)
+                })
+                .collect();
+            for index in overdue {
+                take_back_overdue(job, index, max_age);
+            }
+        }
         for job in self.jobs.values_mut() {
             let lapsed: Vec<u32> = job
                 .leased
@@ -295,8 +334,23 @@ impl Ledger {
                 job.state.as_str()
             )));
         }
-        let tile = &mut job.tiles[index as usize];
+        let max_age = self.max_lease_age(self.job(id)?);
+        let job = self.job_mut(id)?;
+        let tile = &job.tiles[index as usize];
         let yours = tile.epoch == hb.epoch && tile.worker == Some(hb.worker_id);
+        if yours
+            && tile
+                .leased_at
+                .is_some_and(|at| now.saturating_duration_since(at) >= max_age)
+        {
+            take_back_overdue(job, index, max_age);
+            return Err(Error::Conflict(format!(
+                "tile {index} of job {id}: the lease is older than its greatest age ({} s); \
+                 the tile goes to another worker",
+                max_age.as_secs()
+            )));
+        }
+        let tile = &mut job.tiles[index as usize];
         match tile.status {
             TileStatus::Leased { .. } | TileStatus::Pending if yours => {
                 // A lapsed lease nobody else took is revived: the work is not wasted.
@@ -317,6 +371,47 @@ impl Ledger {
                 tile.epoch, hb.epoch, hb.worker_id
             ))),
         }
+    }
+
+    /// Decides whether `worker` may upload tile `index` of job `id` at all, from the request's
+    /// path and headers alone, before its body is read: the job exists and takes tiles, and
+    /// the tile is done (a late duplicate, judged once read) or its latest lease is `worker`'s
+    /// (at `epoch`, when the upload names it). Returns the tile's rectangle, which bounds the
+    /// body. So an upload for no job, or for another worker's tile, costs nothing to refuse.
+    pub fn admit_upload(
+        &self,
+        id: u64,
+        index: u32,
+        worker: u64,
+        epoch: Option<u64>,
+    ) -> Result<TileRect, Error> {
+        let job = self.job(id)?;
+        check_index(job, index)?;
+        if job.state.is_finished() {
+            return Err(Error::Conflict(format!(
+                "job {id} is {}",
+                job.state.as_str()
+            )));
+        }
+        let tile = &job.tiles[index as usize];
+        if tile.status != TileStatus::Done {
+            if !job.is_active() {
+                return Err(Error::Conflict(format!(
+                    "job {id} is {}",
+                    job.state.as_str()
+                )));
+            }
+            if tile.worker != Some(worker) || epoch.is_some_and(|e| e != tile.epoch) {
+                return Err(Error::Conflict(format!(
+                    "stale lease: tile {index} of job {id} is at epoch {} of worker {}, not \
+                     leased to worker {worker}{}",
+                    tile.epoch,
+                    tile.worker.map_or("none".to_string(), |w| w.to_string()),
+                    epoch.map_or(String::new(), |e| format!(" at epoch {e}")),
+                )));
+            }
+        }
+        Ok(job.rects[index as usize])
     }
 
     /// Checks an upload against the job and the tile's lease. `upload.hash` must already be
@@ -495,10 +590,21 @@ impl Ledger {
         let rect = job.rects[index as usize];
         let mut failed_by = job.failed_by.get(&index).cloned().unwrap_or_default();
         failed_by.insert(failure.worker_id);
+        let mut claimed_by = job
+            .deterministic_by
+            .get(&index)
+            .cloned()
+            .unwrap_or_default();
+        if failure.deterministic {
+            claimed_by.insert(failure.worker_id);
+        }
         let reason = &failure.reason;
-        let job_error = if failure.deterministic {
+        let job_error = if claimed_by.len() >= DETERMINISTIC_CONFIRMATIONS {
             Some(format!(
-                "tile {index} {rect:?} cannot be rendered (worker {worker}): {reason}"
+                "tile {index} {rect:?} cannot be rendered: {} workers found so ({}); the \
+                 last (worker {worker}): {reason}",
+                claimed_by.len(),
+                self.worker_names(&claimed_by.iter().copied().collect::<Vec<_>>()),
             ))
         } else if failed_by.len() >= TILE_FAILURE_LIMIT {
             Some(format!(
@@ -545,6 +651,7 @@ impl Ledger {
         tile.worker = None;
         job.leased.remove(&index);
         job.failed_by.insert(index, failed_by);
+        job.deterministic_by.insert(index, claimed_by);
         job.failures += 1;
         job.remember_error(TileError {
             tile: index,
@@ -581,6 +688,26 @@ impl Ledger {
         }
         self.fail_stuck_jobs(now)
     }
+}
+
+/// Takes a lease older than `max_age` back: the tile is queued again, its holder's result is no
+/// longer taken, and the holder is not given it again.
+fn take_back_overdue(job: &mut Job, index: u32, max_age: std::time::Duration) {
+    let tile = &mut job.tiles[index as usize];
+    let holder = tile.worker.take();
+    tile.status = TileStatus::Pending;
+    job.leased.remove(&index);
+    if let Some(holder) = holder {
+        job.failed_by.entry(index).or_default().insert(holder);
+    }
+    crate::metrics::lease_expired();
+    tracing::warn!(
+        job = job.id,
+        tile = index,
+        worker = holder,
+        max_age_s = max_age.as_secs(),
+        "lease older than its greatest age taken back; tile back in the queue"
+    );
 }
 
 /// The message of the newest recorded failure (of tile `index`, if given).

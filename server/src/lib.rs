@@ -25,6 +25,7 @@ pub mod limits;
 pub mod logging;
 pub mod metrics;
 pub mod passes;
+pub mod peers;
 pub mod retention;
 pub mod serve;
 pub mod throttle;
@@ -63,6 +64,10 @@ struct Shared {
     client_rate: throttle::ClientRate,
     /// Woken when tiles may have become available (a job submitted, a tile failed).
     work: Notify,
+    /// Tile uploads being decoded at once: each holds up to its tile's bound in memory
+    /// ([`spindle_common::protocol::TileUpload::max_packed_bytes`]), so their number is
+    /// capped, at twice the cores (decoding is CPU work; more would only wait for a core).
+    decodes: Arc<tokio::sync::Semaphore>,
     shutdown: CancellationToken,
 }
 
@@ -99,6 +104,9 @@ impl AppState {
                 tiles,
                 client_rate,
                 work: Notify::new(),
+                decodes: Arc::new(tokio::sync::Semaphore::new(
+                    2 * std::thread::available_parallelism().map_or(1, |n| n.get()),
+                )),
                 shutdown: CancellationToken::new(),
             }),
         };
@@ -193,6 +201,16 @@ impl AppState {
 
     pub(crate) fn tile_store(&self) -> &TileStore {
         &self.inner.tiles
+    }
+
+    /// A turn to decode a tile upload (see `Shared::decodes`); waits while all are taken.
+    pub(crate) async fn decode_turn(&self) -> tokio::sync::OwnedSemaphorePermit {
+        self.inner
+            .decodes
+            .clone()
+            .acquire_owned()
+            .await
+            .expect("the decode semaphore is never closed")
     }
 
     pub(crate) fn work_available(&self) {

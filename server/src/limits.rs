@@ -7,6 +7,7 @@
 
 use spindle_common::scene::{SceneDescription, Shape};
 use spindle_common::tile::TileRect;
+pub use spindle_common::validate::count_obj_triangles;
 
 /// The coordinator's limits.
 #[derive(Debug, Clone, PartialEq)]
@@ -138,25 +139,6 @@ pub fn icosphere_triangles(subdivisions: u32) -> Option<u64> {
     4u64.checked_pow(subdivisions)?.checked_mul(20)
 }
 
-/// Triangles an OBJ file describes: a face line `f v1 v2 … vn` is a fan of n − 2 triangles.
-pub fn count_obj_triangles(bytes: &[u8]) -> u64 {
-    bytes
-        .split(|&b| b == b'\n')
-        .filter_map(|line| {
-            let line = line.trim_ascii_start();
-            let rest = line.strip_prefix(b"f")?;
-            if !rest.first().is_some_and(|b| b.is_ascii_whitespace()) {
-                return None; // `fo …` or a bare `f` is not a face.
-            }
-            let corners = rest
-                .split(|b| b.is_ascii_whitespace())
-                .filter(|t| !t.is_empty())
-                .count() as u64;
-            Some(corners.saturating_sub(2))
-        })
-        .sum()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -167,13 +149,5 @@ mod tests {
         assert_eq!(icosphere_triangles(1), Some(80));
         assert_eq!(icosphere_triangles(5), Some(20_480));
         assert_eq!(icosphere_triangles(40), None);
-    }
-
-    #[test]
-    fn obj_faces_are_counted_as_fans() {
-        let obj = b"# a quad and a triangle\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n\
-                    f 1 2 3 4\r\n  f 1/1/1 2/2/2 3/3/3\nfo 1 2 3\nvn 0 0 1\nf\n";
-        assert_eq!(count_obj_triangles(obj), 2 + 1);
-        assert_eq!(count_obj_triangles(b""), 0);
     }
 }

@@ -10,9 +10,22 @@
 //!   connection is closed (there is no request to answer);
 //! - the router's request deadline ([`crate::Timeouts::request`], `api::router`) bounds the body
 //!   and the handler together, and answers 408 with `Connection: close`;
+//! - an answer must leave at the pace of a reader: a write to the socket that makes no
+//!   progress within the header deadline ends the connection (`tokio-io-timeout`'s write
+//!   timeout on the socket, under TLS too). The kernel wakes a blocked writer only once a share
+//!   of its send buffer has been read, so a client that reads a byte now and then, or not at
+//!   all, is cut within that deadline: a minimum send rate of a send-buffer share per
+//!   deadline;
+//! - a connection is answered at most [`MAX_REQUESTS_PER_CONNECTION`] requests (the last
+//!   answer says `Connection: close`), and hyper buffers at most [`MAX_READ_BUFFER`] bytes of
+//!   what a client sends ahead (pipelined requests wait there, unread, until their turn);
 //! - at most [`Config::max_connections`] connections are open at once, kept below the process's
 //!   descriptor limit by [`connection_cap`]; further connections wait in the listen backlog
-//!   until one closes, so accepting never fails for want of descriptors.
+//!   until one closes, so accepting never fails for want of descriptors;
+//! - at most [`Config::max_connections_per_address`] of them from one IP address
+//!   ([`crate::peers`]): a further one is closed as soon as it is accepted, so one address,
+//!   however fast it reopens connections, leaves the other slots to everyone else (`/healthz`
+//!   and `/readyz` from another address are answered).
 //!
 //! Shutdown stops accepting, lets in-flight requests finish (long polls end at once, see
 //! [`crate::AppState::begin_shutdown`]) and closes idle connections.
@@ -20,6 +33,7 @@
 use std::future::Future;
 use std::net::SocketAddr;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Duration;
 
 use axum::Router;
@@ -29,9 +43,11 @@ use hyper_util::server::graceful::GracefulShutdown;
 use hyper_util::service::TowerToHyperService;
 use tokio::net::TcpListener;
 use tokio::sync::Semaphore;
+use tokio_io_timeout::TimeoutStream;
 use tower_http::add_extension::AddExtension;
 
 use crate::config::Config;
+use crate::peers::Peers;
 use crate::tls;
 
 /// Descriptors kept for everything but client connections: the database and its journal, asset
@@ -40,6 +56,14 @@ pub const RESERVED_DESCRIPTORS: u64 = 64;
 
 /// How long shutdown waits for in-flight requests before closing their connections.
 const DRAIN_LIMIT: Duration = Duration::from_secs(30);
+
+/// Requests answered on one connection; the last answer closes it (a worker opens a new one,
+/// which costs nothing next to a tile).
+pub const MAX_REQUESTS_PER_CONNECTION: usize = 100;
+
+/// hyper's read buffer per connection: a request's line and headers must fit, and what a
+/// client pipelines ahead waits here, unread, so this bounds it.
+pub const MAX_READ_BUFFER: usize = 64 * 1024;
 
 /// The number of connections to allow: `configured`, lowered to fit under the descriptor
 /// limit `nofile` with [`RESERVED_DESCRIPTORS`] to spare. `None` if the limit leaves no room.
@@ -86,6 +110,7 @@ pub async fn serve(
     }
     tracing::info!(
         max_connections,
+        max_connections_per_address = config.max_connections_per_address,
         header_timeout_ms = config.timeouts.header.as_millis() as u64,
         request_timeout_ms = config.timeouts.request.as_millis() as u64,
         "connection limits"
@@ -101,9 +126,11 @@ pub async fn serve(
     };
     let header_timeout = config.timeouts.header;
     let slots = Arc::new(Semaphore::new(max_connections));
+    let peers = Peers::new(config.max_connections_per_address);
     let mut http = hyper::server::conn::http1::Builder::new();
     http.timer(TokioTimer::new())
         .header_read_timeout(config.timeouts.header)
+        .max_buf_size(MAX_READ_BUFFER)
         .keep_alive(true);
     let graceful = GracefulShutdown::new();
     tokio::pin!(shutdown);
@@ -134,11 +161,19 @@ pub async fn serve(
             },
             () = &mut shutdown => break,
         };
+        let Some(held) = peers.admit(peer.ip()) else {
+            tracing::debug!(%peer, "the address holds its share of connections; closed");
+            continue;
+        };
+        let permit = (permit, held);
         let _ = stream.set_nodelay(true);
-        let service = TowerToHyperService::new(AddExtension::new(
+        let mut stream = TimeoutStream::new(stream);
+        stream.set_write_timeout(Some(header_timeout));
+        let stream = Box::pin(stream);
+        let service = TowerToHyperService::new(CountedRequests::new(AddExtension::new(
             router.clone(),
             ConnectInfo::<SocketAddr>(peer),
-        ));
+        )));
         let Some((acceptor, _)) = &tls else {
             let connection = graceful.watch(http.serve_connection(TokioIo::new(stream), service));
             tokio::spawn(async move {
@@ -179,6 +214,55 @@ pub async fn serve(
         }
     }
     Ok(())
+}
+
+/// A connection's service that counts its requests and closes the connection after the
+/// [`MAX_REQUESTS_PER_CONNECTION`]th answer (`Connection: close`, which hyper obeys).
+#[derive(Clone)]
+struct CountedRequests<S> {
+    inner: S,
+    served: Arc<AtomicUsize>,
+}
+
+impl<S> CountedRequests<S> {
+    fn new(inner: S) -> CountedRequests<S> {
+        CountedRequests {
+            inner,
+            served: Arc::default(),
+        }
+    }
+}
+
+impl<S, B> tower::Service<axum::http::Request<B>> for CountedRequests<S>
+where
+    S: tower::Service<axum::http::Request<B>, Response = axum::response::Response>,
+    S::Future: Send + 'static,
+{
+    type Response = axum::response::Response;
+    type Error = S::Error;
+    type Future = futures_util::future::BoxFuture<'static, Result<Self::Response, S::Error>>;
+
+    fn poll_ready(
+        &mut self,
+        cx: &mut std::task::Context<'_>,
+    ) -> std::task::Poll<Result<(), S::Error>> {
+        self.inner.poll_ready(cx)
+    }
+
+    fn call(&mut self, request: axum::http::Request<B>) -> Self::Future {
+        let last = self.served.fetch_add(1, Ordering::Relaxed) + 1 >= MAX_REQUESTS_PER_CONNECTION;
+        let answer = self.inner.call(request);
+        Box::pin(async move {
+            let mut response = answer.await?;
+            if last {
+                response.headers_mut().insert(
+                    axum::http::header::CONNECTION,
+                    axum::http::HeaderValue::from_static("close"),
+                );
+            }
+            Ok(response)
+        })
+    }
 }
 
 #[cfg(test)]

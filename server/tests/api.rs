@@ -556,3 +556,42 @@ async fn the_openapi_document_lists_exactly_the_routes_served() {
     assert!(doc["components"]["schemas"]["TileUpload"].is_object());
     assert!(doc["components"]["securitySchemes"]["worker_token"].is_object());
 }
+
+#[tokio::test]
+async fn an_obj_face_of_too_many_corners_is_refused_at_submission() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = Coordinator::open(config(dir.path())).await;
+    let mut s = scene(8, 8);
+    s["objects"].as_array_mut().unwrap().push(json!({
+        "shape": {"type": "obj", "path": "meshes/fan.obj"},
+        "material": {"type": "diffuse", "reflectance": [0.5, 0.5, 0.5]}
+    }));
+    // One face of 10,002 corners (about 10 s of scene build on every worker): refused at
+    // submission, naming the asset and the line, though its 10,000 triangles are far within
+    // the triangle limit.
+    let fan = format!("v 0 0 0\nv 1 0 0\nv 1 1 0\nf{}\n", " 1 2 3".repeat(3334));
+    let fan_hash = asset_hash(fan.as_bytes());
+    let (status, _) = c
+        .send(
+            Method::PUT,
+            &format!("/v1/assets/{fan_hash}"),
+            Some(CLIENT),
+            fan.into_bytes(),
+        )
+        .await;
+    assert_eq!(status, StatusCode::OK);
+    let (status, v) = c
+        .client(
+            Method::POST,
+            "/v1/jobs",
+            Some(json!({"scene": s, "assets": {"meshes/fan.obj": fan_hash}})),
+        )
+        .await;
+    assert_eq!(status, StatusCode::BAD_REQUEST, "{v}");
+    assert_eq!(
+        v["error"],
+        "assets.meshes/fan.obj: line 4: a face of 10002 corners; at most 64 (split it into \
+         smaller faces)",
+        "{v}"
+    );
+}

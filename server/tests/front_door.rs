@@ -21,6 +21,10 @@ struct Server {
 }
 
 async fn start(max_connections: usize) -> Server {
+    start_with(max_connections, 64).await
+}
+
+async fn start_with(max_connections: usize, per_address: usize) -> Server {
     let dir = tempfile::tempdir().unwrap();
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
     let addr = listener.local_addr().unwrap();
@@ -30,6 +34,7 @@ async fn start(max_connections: usize) -> Server {
         request: REQUEST,
     };
     config.max_connections = max_connections;
+    config.max_connections_per_address = per_address;
     let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
     tokio::spawn(spindle_server::run(config, listener, async {
         let _ = stopped.await;
@@ -168,4 +173,97 @@ async fn past_the_connection_cap_new_connections_wait_and_are_then_served() {
     for mut stream in silent {
         assert_eq!(read_until_closed(&mut stream).await.as_deref(), Some(""));
     }
+}
+
+/// Connects with a small receive buffer, so the server's answers fill it at once.
+async fn connect_small(addr: SocketAddr) -> TcpStream {
+    let socket = tokio::net::TcpSocket::new_v4().unwrap();
+    socket.set_recv_buffer_size(4096).unwrap();
+    socket.connect(addr).await.unwrap()
+}
+
+#[tokio::test]
+async fn clients_that_pipeline_large_answers_and_never_read_are_cut_and_others_served() {
+    let server = start(4).await;
+    // Four connections take every slot, each asking 200 times for the 65-KB API document
+    // and reading none of it: the server's writes stall.
+    let mut hogs = Vec::new();
+    for _ in 0..4 {
+        let mut stream = connect_small(server.addr).await;
+        let requests = "GET /v1/openapi.json HTTP/1.1\r\nhost: x\r\n\r\n".repeat(200);
+        stream.write_all(requests.as_bytes()).await.unwrap();
+        hogs.push(stream);
+    }
+    let mut health = TcpStream::connect(server.addr).await.unwrap();
+    health
+        .write_all(b"GET /healthz HTTP/1.1\r\nhost: x\r\nconnection: close\r\n\r\n")
+        .await
+        .unwrap();
+    let answer = read_until_closed(&mut health)
+        .await
+        .expect("/healthz answered while four clients read none of their answers");
+    assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+    drop(hogs);
+}
+
+#[tokio::test]
+async fn a_connection_is_answered_a_bounded_number_of_requests_then_closed() {
+    let server = start(4).await;
+    let mut stream = TcpStream::connect(server.addr).await.unwrap();
+    let n = spindle_server::serve::MAX_REQUESTS_PER_CONNECTION;
+    let requests = "GET /healthz HTTP/1.1\r\nhost: x\r\n\r\n".repeat(n + 5);
+    stream.write_all(requests.as_bytes()).await.unwrap();
+    let answers = read_until_closed(&mut stream)
+        .await
+        .expect("the connection is closed");
+    assert_eq!(answers.matches("HTTP/1.1 200").count(), n, "{answers}");
+    assert!(
+        answers.to_ascii_lowercase().contains("connection: close"),
+        "the last answer says so"
+    );
+}
+
+#[tokio::test]
+async fn one_address_reopening_half_open_connections_leaves_the_probes_answered() {
+    let server = start_with(8, 4).await;
+    let addr = server.addr;
+    // 32 half-open connections from 127.0.0.2, each reopened as soon as the server closes it,
+    // for at most GIVE_UP.
+    let end = Instant::now() + GIVE_UP;
+    let mut attackers = tokio::task::JoinSet::new();
+    for _ in 0..32 {
+        attackers.spawn(async move {
+            while Instant::now() < end {
+                let socket = tokio::net::TcpSocket::new_v4().unwrap();
+                socket.bind("127.0.0.2:0".parse().unwrap()).unwrap();
+                if let Ok(mut stream) = socket.connect(addr).await {
+                    let _ = stream.write_all(b"GET /heal").await;
+                    let mut buf = [0u8; 64];
+                    let _ = tokio::time::timeout_at(end.into(), stream.read(&mut buf)).await;
+                }
+                tokio::time::sleep(Duration::from_millis(5)).await;
+            }
+        });
+    }
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    // From 127.0.0.1, each probe is answered well within one header deadline.
+    for path in ["/healthz", "/readyz", "/healthz", "/readyz"] {
+        let mut probe = TcpStream::connect(addr).await.unwrap();
+        probe
+            .write_all(
+                format!("GET {path} HTTP/1.1\r\nhost: x\r\nconnection: close\r\n\r\n").as_bytes(),
+            )
+            .await
+            .unwrap();
+        let mut answer = Vec::new();
+        let read = tokio::time::timeout(HEADER * 2 / 3, probe.read_to_end(&mut answer)).await;
+        assert!(
+            read.is_ok(),
+            "{path} not answered within {:?}",
+            HEADER * 2 / 3
+        );
+        let answer = String::from_utf8_lossy(&answer);
+        assert!(answer.starts_with("HTTP/1.1 200"), "{path}: {answer}");
+    }
+    attackers.abort_all();
 }

@@ -369,7 +369,7 @@ async fn a_failed_tile_fails_its_job_once_the_workers_that_could_take_it_are_gon
 }
 
 #[tokio::test]
-async fn a_deterministic_failure_fails_the_job_at_once_and_errors_are_shown() {
+async fn a_deterministic_failure_confirmed_by_a_second_worker_fails_the_job_and_errors_are_shown() {
     let dir = tempfile::tempdir().unwrap();
     let c = Coordinator::open(config(dir.path())).await;
     let job = c
@@ -384,11 +384,22 @@ async fn a_deterministic_failure_fails_the_job_at_once_and_errors_are_shown() {
     let lease = c.lease(workers[0]).await.unwrap();
     let reason = "the scene does not build: objects[0].shape: face index 9 out of range";
     fail_with(&c, &lease, workers[0], reason, true).await;
+    assert_eq!(
+        c.job(job.id).await.state,
+        JobState::Running,
+        "one worker's claim"
+    );
+    let second = c.lease(workers[1]).await.unwrap();
+    assert_eq!(second.tile_index, lease.tile_index);
+    fail_with(&c, &second, workers[1], reason, true).await;
     let info = c.job(job.id).await;
     assert_eq!(info.state, JobState::Failed);
     let error = info.error.unwrap();
-    assert!(error.contains(reason) && error.contains("alpha"), "{error}");
-    assert_eq!(info.recent_errors.len(), 1);
+    assert!(
+        error.contains(reason) && error.contains("alpha") && error.contains("beta"),
+        "{error}"
+    );
+    assert_eq!(info.recent_errors.len(), 2);
     let e = &info.recent_errors[0];
     assert_eq!(
         (e.tile, e.worker_id, e.worker.as_str(), e.message.as_str()),
@@ -396,7 +407,7 @@ async fn a_deterministic_failure_fails_the_job_at_once_and_errors_are_shown() {
     );
     assert!(e.at_ms >= before, "{e:?}");
     assert!(
-        c.lease(workers[1]).await.is_none(),
+        c.lease(workers[2]).await.is_none(),
         "nothing more is handed out"
     );
 }
@@ -650,4 +661,91 @@ async fn the_previous_pass_is_refused_to_all_but_its_leaseholder() {
         .await;
     assert_eq!(status, StatusCode::FORBIDDEN);
     assert!(error(&body).contains("worker secret"), "{}", error(&body));
+}
+
+#[tokio::test]
+async fn one_workers_deterministic_failure_is_a_claim_that_a_second_worker_confirms() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = Coordinator::open(config(dir.path())).await;
+    let job = c
+        .submit(json!({"scene": scene(8, 8), "tile_size": 8}))
+        .await;
+    let (liar, honest, third) = (
+        c.register("liar").await,
+        c.register("honest").await,
+        c.register("third").await,
+    );
+    // One identity claims the tile cannot be rendered anywhere: the job goes on.
+    let lease = c.lease(liar).await.unwrap();
+    fail_with(&c, &lease, liar, "forged: the scene does not build", true).await;
+    assert_eq!(c.job(job.id).await.state, JobState::Running);
+    // Another worker takes the tile (not the claimant) and renders it.
+    assert!(
+        c.lease(liar).await.is_none(),
+        "the claimant is not given it again"
+    );
+    let lease = c.lease(honest).await.expect("another worker gets the tile");
+    let (status, ack) = c.upload(job.id, 0, &upload_for(&lease, honest)).await;
+    assert_eq!(status, StatusCode::OK, "{ack}");
+    assert_eq!(c.wait_finished(job.id).await.state, JobState::Done);
+
+    // A scene that really fails: two different workers say so, and the job fails then.
+    let job = c
+        .submit(json!({"scene": scene(8, 8), "tile_size": 8}))
+        .await;
+    let reason = "the scene does not build: objects[0].shape: face index 9 out of range";
+    let lease = c.lease(honest).await.unwrap();
+    fail_with(&c, &lease, honest, reason, true).await;
+    assert_eq!(c.job(job.id).await.state, JobState::Running);
+    let lease = c.lease(third).await.unwrap();
+    fail_with(&c, &lease, third, reason, true).await;
+    let info = c.job(job.id).await;
+    assert_eq!(info.state, JobState::Failed);
+    let error = info.error.unwrap();
+    assert!(
+        error.contains("2 workers found so") && error.contains(reason),
+        "{error}"
+    );
+}
+
+#[tokio::test]
+async fn a_lease_kept_alive_by_heartbeats_alone_is_taken_back_at_its_greatest_age() {
+    let dir = tempfile::tempdir().unwrap();
+    let ttl = Duration::from_millis(100);
+    let c = with_ttl(dir.path(), ttl).await;
+    let job = c
+        .submit(json!({"scene": scene(8, 8), "tile_size": 8}))
+        .await;
+    let (squatter, honest) = (c.register("squatter").await, c.register("honest").await);
+    let lease = c.lease(squatter).await.unwrap();
+    // Heartbeats every half TTL and nothing else, for up to three times the greatest age.
+    let greatest = ttl * spindle_server::jobs::MAX_LEASE_AGE_TTLS;
+    let started = std::time::Instant::now();
+    let refused = loop {
+        let (status, _) = c
+            .worker(
+                Method::POST,
+                &format!("/v1/leases/{}/0/heartbeat", job.id),
+                Some(json!({"worker_id": squatter, "epoch": lease.epoch})),
+            )
+            .await;
+        if status != StatusCode::OK {
+            break status;
+        }
+        assert!(c.lease(honest).await.is_none(), "the tile is held");
+        assert!(
+            started.elapsed() < 3 * greatest,
+            "the lease was never taken back"
+        );
+        tokio::time::sleep(ttl / 2).await;
+    };
+    assert_eq!(refused, StatusCode::CONFLICT);
+    assert!(started.elapsed() >= greatest, "taken back before its age");
+    let lease = c
+        .lease(honest)
+        .await
+        .expect("the tile goes to another worker");
+    let (status, ack) = c.upload(job.id, 0, &upload_for(&lease, honest)).await;
+    assert_eq!(status, StatusCode::OK, "{ack}");
+    assert_eq!(c.wait_finished(job.id).await.state, JobState::Done);
 }

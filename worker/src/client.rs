@@ -16,8 +16,8 @@ use bytes::Bytes;
 use reqwest::StatusCode;
 use serde::de::DeserializeOwned;
 use spindle_common::protocol::{
-    ApiError, Heartbeat, HeartbeatAck, JobSpec, Lease, LeaseRequest, RegisterWorker, TileAck,
-    TileFailure, WORKER_SECRET_HEADER, WorkerRegistered,
+    ApiError, Heartbeat, HeartbeatAck, JobSpec, LEASE_EPOCH_HEADER, Lease, LeaseRequest,
+    RegisterWorker, TileAck, TileFailure, WORKER_SECRET_HEADER, WorkerRegistered,
 };
 use spindle_common::tile::TilePixels;
 use spindle_common::tile_encoding;
@@ -212,17 +212,20 @@ impl Client {
     }
 
     /// `PUT /v1/jobs/{job}/tiles/{tile}` of a [`TileUpload`] in its compact form
-    /// ([`tile_encoding::encode`]).
+    /// ([`tile_encoding::encode`]), naming the lease's `epoch` in a header so the coordinator
+    /// can refuse a stale upload before reading it.
     pub async fn upload(
         &self,
         job_id: u64,
         tile: u32,
+        epoch: u64,
         encoded: Bytes,
     ) -> Result<TileAck, ClientError> {
         let req = self
             .http
             .put(self.url(&format!("/v1/jobs/{job_id}/tiles/{tile}")))
             .header(reqwest::header::CONTENT_TYPE, tile_encoding::CONTENT_TYPE)
+            .header(LEASE_EPOCH_HEADER, epoch)
             .body(encoded);
         decode(self.send(req).await?).await
     }

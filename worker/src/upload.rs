@@ -68,7 +68,7 @@ pub async fn deliver(
     };
     let salt = worker_id ^ (job << 32) ^ u64::from(tile);
     match retry(policy, salt, stop, "uploading a tile", || {
-        client.upload(job, tile, encoded.clone())
+        client.upload(job, tile, epoch, encoded.clone())
     })
     .await
     {

@@ -10,7 +10,8 @@
 //! - a job that cannot be rendered (bad asset, renderer panic, a tile the coordinator refuses as
 //!   invalid): the tile is reported through the fail route with the reason, so the coordinator
 //!   can apply its failure rules; a failure no other worker could avoid (the scene does not
-//!   build, a pixel overflows f32) is reported as deterministic, which fails the job at once;
+//!   build, a pixel overflows f32) is reported as deterministic, which fails the job once a
+//!   second worker confirms it (or no other worker may take the tile);
 //! - the token refused (401/403): the worker stops with an error, since no retry can fix it.
 //!
 //! Drain: when a lease request answers 410 or a heartbeat answer says `drain`, the operator has

@@ -56,3 +56,30 @@ fn out_of_range_index_and_empty_file_are_rejected() {
         ObjError::Mesh(MeshError::Empty)
     );
 }
+
+/// One face of 10,000 corners made the build quadratic (9.6 s); it is refused before the
+/// triangulation, naming its line, and a face at the bound is still read.
+#[test]
+fn a_face_of_too_many_corners_is_refused_before_it_is_triangulated() {
+    let fan = |n: usize| {
+        let corners: String = (1..=n).map(|i| format!(" {i}")).collect();
+        let vertices: String = (0..n)
+            .map(|i| {
+                let a = i as f64 / n as f64 * std::f64::consts::TAU;
+                format!("v {} {} 0\n", a.cos(), a.sin())
+            })
+            .collect();
+        format!("{vertices}f{corners}\n")
+    };
+    let n = spindle_common::validate::MAX_FACE_CORNERS;
+    let mesh = parse_obj(fan(n).as_bytes()).unwrap();
+    assert_eq!(mesh.report().triangles, n - 2);
+    let started = std::time::Instant::now();
+    let e = parse_obj(fan(10_000).as_bytes()).unwrap_err().to_string();
+    assert_eq!(
+        e,
+        "not a valid OBJ file: line 10001: a face of 10000 corners; at most 64 (split it into \
+         smaller faces)"
+    );
+    println!("a 10,000-corner face refused in {:?}", started.elapsed());
+}

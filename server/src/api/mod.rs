@@ -191,7 +191,7 @@ fn routes_and_document(state: &AppState) -> (Router<AppState>, utoipa::openapi::
         tiles::routes(),
         events::routes(),
         workers::routes(),
-        work::routes(limits),
+        work::routes(),
     ]
     .into_iter()
     .flatten()
@@ -201,7 +201,14 @@ fn routes_and_document(state: &AppState) -> (Router<AppState>, utoipa::openapi::
         require_token(&mut paths, role);
         document_bad_request(&mut paths);
         let auth = axum::middleware::from_fn_with_state((state.clone(), role), auth::require);
-        let handler = if role == Role::Client {
+        // The public routes with large answers (the API document, the metrics) are paced
+        // like the client routes, so a client without a token cannot have them sent without
+        // end; the probes are never paced.
+        let probe = paths
+            .paths
+            .keys()
+            .any(|p| p == "/healthz" || p == "/readyz");
+        let handler = if role == Role::Client || (role == Role::Public && !probe) {
             let rate = axum::middleware::from_fn_with_state(state.clone(), throttle::client_rate);
             handler.layer(auth).layer(rate)
         } else {

@@ -6,38 +6,37 @@
 use std::time::Duration;
 
 use axum::Json;
-use axum::extract::{DefaultBodyLimit, State};
+use axum::body::Body;
+use axum::extract::State;
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use spindle_common::protocol::{
-    ApiError, Heartbeat, HeartbeatAck, JobSpec, Lease, LeaseRequest, MAX_LEASE_WAIT_MS,
-    RegisterWorker, TileAck, TileFailure, TileUpload, WorkerRegistered, pixel_hash,
+    ApiError, Heartbeat, HeartbeatAck, JobSpec, LEASE_EPOCH_HEADER, Lease, LeaseRequest,
+    MAX_LEASE_WAIT_MS, RegisterWorker, TileAck, TileFailure, TileUpload, WorkerRegistered,
+    pixel_hash,
 };
 use spindle_common::tile_encoding;
 use tokio::time::Instant;
-use utoipa_axum::router::UtoipaMethodRouterExt;
 use utoipa_axum::routes;
 
 use super::Declared;
 use crate::AppState;
 use crate::auth::Role;
 use crate::error::Error;
-use crate::extract::{ApiPath, JsonBody, RawBody, parse_json};
-use crate::limits::Limits;
+use crate::extract::{ApiPath, JsonBody, RawBody, parse_json, read_body};
 use crate::throttle;
 use crate::tile_store::ReadError;
 use crate::worker_secret::WorkerIdentity;
 
-pub(super) fn routes(limits: &Limits) -> Declared {
+pub(super) fn routes() -> Declared {
     vec![
         (Role::NewWorker, routes!(register_worker)),
         (Role::Worker, routes!(lease)),
         (Role::Worker, routes!(job_spec)),
         (Role::Worker, routes!(heartbeat)),
-        (
-            Role::Worker,
-            routes!(upload_tile).layer(DefaultBodyLimit::max(limits.max_tile_upload_bytes)),
-        ),
+        // The handler reads its body itself, within the tile's bound and
+        // `limits.max_tile_upload_bytes`.
+        (Role::Worker, routes!(upload_tile)),
         (Role::Worker, routes!(fail_tile)),
         (Role::Worker, routes!(previous_pass)),
     ]
@@ -202,20 +201,38 @@ async fn upload_tile(
     identity: WorkerIdentity,
     ApiPath((job, tile)): ApiPath<(u64, u32)>,
     headers: HeaderMap,
-    RawBody(body): RawBody,
+    body: Body,
 ) -> Result<Json<TileAck>, Error> {
-    crate::metrics::upload_received(body.len());
     let encoding = UploadEncoding::of(&headers)?;
-    let limit = state.config().limits.max_tile_upload_bytes;
+    let epoch = lease_epoch(&headers)?;
+    // Nothing of the body is read before the lease is known to be this worker's; then at most
+    // what the tile's rectangle can hold is read, and inflated.
+    let rect = state.ledger().admit_upload(job, tile, identity.0, epoch)?;
+    let inflated_limit = TileUpload::max_packed_bytes(rect);
+    let body_limit = match encoding {
+        UploadEncoding::Compact => inflated_limit,
+        UploadEncoding::Json => TileUpload::max_json_bytes(rect),
+    }
+    .min(state.config().limits.max_tile_upload_bytes);
+    let body = read_body(body, body_limit).await?;
+    crate::metrics::upload_received(body.len());
+    let decoding = state.decode_turn().await;
     // Decoding and hashing up to megabytes of floats is CPU work, and recording commits: both
     // off the runtime, on one blocking thread; the ledger is held only to record.
     let (outcome, complete, epoch) = state
         .off_runtime(move |state| {
             let upload: TileUpload = match encoding {
                 UploadEncoding::Json => parse_json(&body)?,
-                UploadEncoding::Compact => tile_encoding::decode(&body, limit)
+                UploadEncoding::Compact => tile_encoding::decode(&body, inflated_limit)
                     .map_err(|e| Error::BadRequest(e.to_string()))?,
             };
+            if epoch.is_some_and(|e| e != upload.epoch) {
+                return Err(Error::BadRequest(format!(
+                    "epoch: {} is not the {LEASE_EPOCH_HEADER} header's {}",
+                    upload.epoch,
+                    epoch.unwrap_or_default()
+                )));
+            }
             upload.check_report().map_err(Error::BadRequest)?;
             let actual = pixel_hash(&upload.pixels);
             if actual != upload.hash {
@@ -233,6 +250,7 @@ async fn upload_tile(
                     tile_encoding::encode(&upload).map_err(anyhow::Error::from)?
                 }
             };
+            drop(decoding);
             let (outcome, complete) = state.ledger().record_upload(job, tile, &upload, &stored)?;
             Ok((outcome, complete, upload.epoch))
         })
@@ -244,6 +262,23 @@ async fn upload_tile(
         state.assemble_complete_jobs();
     }
     Ok(Json(TileAck { outcome }))
+}
+
+/// The lease epoch an upload names in its [`LEASE_EPOCH_HEADER`], if it names one.
+fn lease_epoch(headers: &HeaderMap) -> Result<Option<u64>, Error> {
+    let Some(value) = headers.get(LEASE_EPOCH_HEADER) else {
+        return Ok(None);
+    };
+    value
+        .to_str()
+        .ok()
+        .and_then(|v| v.trim().parse().ok())
+        .map(Some)
+        .ok_or_else(|| {
+            Error::BadRequest(format!(
+                "{LEASE_EPOCH_HEADER}: not an epoch (a whole number)"
+            ))
+        })
 }
 
 /// How a tile upload's body is written, by its `Content-Type`.
