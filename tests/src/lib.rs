@@ -4,13 +4,12 @@
 //!
 //! Every process is killed when its handle is dropped (so a failing test leaves nothing
 //! running), every wait has a deadline, and ports are chosen at run time. The binaries are
-//! found beside the test executable's directory (`target/<profile>/`), built through Cargo by
-//! the first test that asks for one (`binary`).
+//! found beside the test executable's directory (`target/<profile>/`), where `cargo test
+//! --workspace` puts them before any test runs (`binary`).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
-use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, anyhow, bail};
@@ -23,11 +22,10 @@ use spindle_render::{Assets, Scene, render_tile};
 /// The path of one of the workspace's binaries (`spindle-server`, `spindle-worker`,
 /// `spindle`), next to the directory of the running test executable.
 ///
-/// The first call in a test process builds the workspace's binaries through Cargo (the `cargo`
-/// that runs the tests, `$CARGO`, with this executable's profile), so a fresh clone's
-/// `cargo test --workspace` — or a lone `cargo test -p spindle-tests` — starts binaries it built
-/// itself: Cargo builds a package's binaries only for that package's own integration tests, and
-/// these tests start other packages' binaries. When they are up to date the build is a no-op.
+/// `cargo test --workspace` builds them before any test runs: Cargo builds a package's binaries
+/// for that package's own integration tests, and each of the three packages has some
+/// (`worker/tests/command_line.rs` is the worker's). A lone `cargo test -p spindle-tests` does
+/// not: it needs `cargo build --workspace --all-targets` first, and says so.
 pub fn binary(name: &str) -> PathBuf {
     let exe = std::env::current_exe().expect("the test executable's path");
     // target/<profile>/deps/<test>-<hash> → target/<profile>/<name>
@@ -35,54 +33,14 @@ pub fn binary(name: &str) -> PathBuf {
         .parent()
         .and_then(Path::parent)
         .expect("the test executable lives in target/<profile>/deps");
-    static BUILT: OnceLock<Result<(), String>> = OnceLock::new();
-    if let Err(problem) = BUILT.get_or_init(|| build_binaries(profile_dir)) {
-        panic!("{problem}");
-    }
     let path = profile_dir.join(format!("{name}{}", std::env::consts::EXE_SUFFIX));
     assert!(
         path.is_file(),
-        "{} is missing after `cargo build --workspace --bins`",
+        "{} is missing: `cargo test --workspace` builds it; with `-p spindle-tests` alone, run \
+         `cargo build --workspace --all-targets` first",
         path.display()
     );
     path
-}
-
-/// Builds the workspace's binaries with the profile whose output folder is `profile_dir`
-/// (`debug` is Cargo's `dev` profile; any other folder is named after its profile).
-fn build_binaries(profile_dir: &Path) -> Result<(), String> {
-    let profile = match profile_dir.file_name().and_then(|name| name.to_str()) {
-        Some("debug") => "dev",
-        Some(other) => other,
-        None => return Err(format!("no profile folder in {}", profile_dir.display())),
-    };
-    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    let manifest = Path::new(env!("CARGO_MANIFEST_DIR")).join("../Cargo.toml");
-    let status = Command::new(&cargo)
-        .args([
-            "build",
-            "--workspace",
-            "--bins",
-            "--profile",
-            profile,
-            "--manifest-path",
-        ])
-        .arg(&manifest)
-        .status()
-        .map_err(|e| {
-            format!(
-                "starting {} to build the binaries: {e}",
-                Path::new(&cargo).display()
-            )
-        })?;
-    if status.success() {
-        Ok(())
-    } else {
-        Err(format!(
-            "`cargo build --workspace --bins --profile {profile}` failed ({status}): the end-to-end \
-             tests need the workspace's binaries"
-        ))
-    }
 }
 
 /// A port on 127.0.0.1 that was free a moment ago.
