@@ -252,6 +252,37 @@ pub enum Shape {
         #[serde(default)]
         seed: u64,
     },
+    /// An axis-aligned box centred at the origin, `size` = its extents along x, y and z. Its top
+    /// (the +y face) may be displaced by `waves` — a water surface, say; the sides follow the
+    /// waves, so the box stays closed, and its edges stay sharp.
+    Box {
+        #[schema(value_type = VectorSchema)]
+        size: Vec3,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        waves: Option<Waves>,
+    },
+}
+
+/// A box's wavy top: the height field `y = size[1]/2 + h(x, z)`, a sum of a few sine waves of
+/// random directions and phases drawn from `seed`, with wavelengths between `wavelength/2` and
+/// `wavelength`, and `|h| <= amplitude` everywhere. The top is an even grid of
+/// `segments × segments` squares, two triangles each, with the field's exact normals.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Waves {
+    #[schema(minimum = 0.0)]
+    pub amplitude: f64,
+    #[schema(minimum = 1e-6, maximum = 1e6)]
+    pub wavelength: f64,
+    #[serde(default)]
+    pub seed: u64,
+    #[serde(default = "default_wave_segments")]
+    #[schema(minimum = 1, maximum = 1024)]
+    pub segments: u32,
+}
+
+fn default_wave_segments() -> u32 {
+    64
 }
 
 /// `scale`, then `rotate_deg` about x, y, z in that order, then `translate`.

@@ -10,7 +10,7 @@
 
 use crate::scene::{
     Camera, Film, Integrator, Light, Material, Medium, Object, Phase, Rgb, SceneDescription, Shape,
-    SingleScatter, Transform, Vec3,
+    SingleScatter, Transform, Vec3, Waves,
 };
 
 /// The largest image side accepted, in pixels (a sanity cap: 16384² pixels of three RGB f32
@@ -32,6 +32,9 @@ pub const MAX_COORDINATE: f64 = 1e6;
 /// build); meshes from modelling tools have faces of 3 or 4 corners, and rarely more than a
 /// few dozen.
 pub const MAX_FACE_CORNERS: usize = 64;
+/// The most squares along a side of a wavy box's top (`segments`): 1024² squares are already
+/// 2.1 million triangles.
+pub const MAX_WAVE_SEGMENTS: u32 = 1024;
 /// The smallest length accepted (radii), and the smallest absolute scale factor.
 pub const MIN_LENGTH: f64 = 1e-6;
 /// The largest absolute scale factor of a transform.
@@ -359,7 +362,52 @@ fn check_shape(path: &str, shape: &Shape) -> Check {
             }
             check_at_least(&format!("{path}.frequency"), *frequency, 0.0)
         }
+        Shape::Box { size, waves } => {
+            for (i, side) in size.iter().enumerate() {
+                check_length(&format!("{path}.size[{i}]"), *side)?;
+            }
+            match waves {
+                Some(waves) => check_waves(&format!("{path}.waves"), waves, size[1]),
+                None => Ok(()),
+            }
+        }
     }
+}
+
+/// A box's waves: the top must stay above the bottom with room to spare, so the amplitude is
+/// less than half the box's height.
+fn check_waves(path: &str, waves: &Waves, height: f64) -> Check {
+    let amplitude_path = format!("{path}.amplitude");
+    check_at_least(&amplitude_path, waves.amplitude, 0.0)?;
+    if waves.amplitude >= height / 2.0 {
+        return Err(SceneError::new(
+            amplitude_path,
+            format!(
+                "must be less than half the box's height size[1] = {height} (the top would reach \
+                 the bottom), got {}",
+                waves.amplitude
+            ),
+        ));
+    }
+    check_length(&format!("{path}.wavelength"), waves.wavelength)?;
+    if !(1..=MAX_WAVE_SEGMENTS).contains(&waves.segments) {
+        return Err(SceneError::new(
+            format!("{path}.segments"),
+            format!(
+                "must be from 1 to {MAX_WAVE_SEGMENTS} (squares along a side of the top), got {}",
+                waves.segments
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Triangles of a box shape: its top is `n × n` squares (`n` = the waves' segments, 1 for a flat
+/// box) of two triangles; each side is `n` quads of two triangles from the bottom edge up to the
+/// top's border; the bottom is a fan of `4n` triangles from its centre to the sides' lower edges.
+pub fn box_triangles(waves: Option<&Waves>) -> u64 {
+    let n = u64::from(waves.map_or(1, |w| w.segments));
+    2 * n * n + 12 * n
 }
 
 fn check_subdivisions(path: &str, subdivisions: u32) -> Check {

@@ -29,6 +29,7 @@ pub mod tile;
 pub mod tile_pass;
 pub mod transform;
 pub mod transport;
+pub mod wavy_box;
 
 pub use frame::{PASS_SPP, PassReport, render_frame, render_frame_passes};
 pub use provenance::provenance;

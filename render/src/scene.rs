@@ -12,7 +12,7 @@ use std::collections::HashMap;
 use glam::DVec3;
 use rayon::prelude::*;
 use spindle_common::scene as desc;
-use spindle_common::validate::{MAX_COORDINATE, SceneError};
+use spindle_common::validate::{MAX_COORDINATE, MAX_WAVE_SEGMENTS, SceneError};
 
 use crate::Rgb;
 use crate::bvh::Bvh;
@@ -27,6 +27,7 @@ use crate::procedural::{MAX_SUBDIVISIONS, bumpy_sphere, icosphere};
 use crate::scatter::prune::beam_table::BeamTable;
 use crate::scatter::prune::bounds::PruneBounds;
 use crate::transform::Transform;
+use crate::wavy_box::{WaveField, wavy_box};
 
 /// The bytes of each `obj` shape's file, keyed by the shape's `path` string exactly as written
 /// in the scene. The caller reads the files (or fetches them by hash); the renderer reads none.
@@ -439,6 +440,42 @@ fn build_object(
                 ));
             }
             bumpy_sphere(radius, s, amplitude, frequency, seed)
+        }
+        desc::Shape::Box { size, waves } => {
+            for (i, &side) in size.iter().enumerate() {
+                positive(&format!("shape.size[{i}]"), side)?;
+            }
+            match waves {
+                None => wavy_box(DVec3::from_array(*size), None),
+                Some(w) => {
+                    let checked = |f: &str, ok: bool, v: f64, what: &str| {
+                        if ok {
+                            Ok(())
+                        } else {
+                            Err(SceneError::new(
+                                field(&format!("shape.waves.{f}")),
+                                format!("must be {what}, got {v}"),
+                            ))
+                        }
+                    };
+                    let a = w.amplitude;
+                    checked(
+                        "amplitude",
+                        a.is_finite() && a >= 0.0 && a < size[1] / 2.0,
+                        a,
+                        "finite, >= 0 and less than half the box's height",
+                    )?;
+                    positive("shape.waves.wavelength", w.wavelength)?;
+                    if !(1..=MAX_WAVE_SEGMENTS).contains(&w.segments) {
+                        return Err(SceneError::new(
+                            field("shape.waves.segments"),
+                            format!("must be from 1 to {MAX_WAVE_SEGMENTS}, got {}", w.segments),
+                        ));
+                    }
+                    let surface = WaveField::new(a, w.wavelength, w.seed);
+                    wavy_box(DVec3::from_array(*size), Some((&surface, w.segments)))
+                }
+            }
         }
     };
     let transform =

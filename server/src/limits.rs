@@ -3,10 +3,12 @@
 //! A farm is shared, so a single request must not be able to exhaust its memory, disk or time.
 //! Each check names the offending field and the limit, and becomes a 4xx before anything is
 //! stored. Triangle counts are known without building geometry: an icosphere of `s`
-//! subdivisions has 20·4^s triangles; an OBJ's are counted from its `f` lines.
+//! subdivisions has 20·4^s triangles, a box's follow from its segments
+//! ([`box_triangles`]); an OBJ's are counted from its `f` lines.
 
 use spindle_common::scene::{SceneDescription, Shape};
 use spindle_common::tile::TileRect;
+use spindle_common::validate::box_triangles;
 pub use spindle_common::validate::count_obj_triangles;
 
 /// The coordinator's limits.
@@ -121,6 +123,7 @@ impl Limits {
                 Shape::Icosphere { subdivisions, .. } | Shape::BumpySphere { subdivisions, .. } => {
                     icosphere_triangles(*subdivisions).unwrap_or(u64::MAX)
                 }
+                Shape::Box { waves, .. } => box_triangles(waves.as_ref()),
             };
             total = total.saturating_add(count);
             if total > self.max_triangles {

@@ -745,3 +745,84 @@ fn a_face_of_too_many_corners_is_refused_naming_its_line() {
         "line 3: a face of 10000 corners; at most 64 (split it into smaller faces)"
     );
 }
+
+#[test]
+fn box_values_are_checked() {
+    let wavy = json!({ "type": "box", "size": [2, 1, 3],
+                       "waves": { "amplitude": 0.1, "wavelength": 1.5 } });
+    let scene = with("/objects/2/shape", wavy.clone()).expect("a wavy box is valid");
+    let Shape::Box {
+        size,
+        waves: Some(waves),
+    } = &scene.objects[2].shape
+    else {
+        panic!("not a wavy box: {:?}", scene.objects[2].shape);
+    };
+    assert_eq!(*size, [2.0, 1.0, 3.0]);
+    assert_eq!(
+        (waves.seed, waves.segments),
+        (0, 64),
+        "the documented defaults"
+    );
+    assert_eq!(box_triangles(Some(waves)), 2 * 64 * 64 + 12 * 64);
+    assert_eq!(box_triangles(None), 14);
+    #[track_caller]
+    fn refuses(edit: &str, value: Value, path: &str, word: &str) {
+        let mut shape = json!({ "type": "box", "size": [2, 1, 3],
+                                "waves": { "amplitude": 0.1, "wavelength": 1.5 } });
+        let (parent, key) = edit.rsplit_once('/').expect("a JSON pointer");
+        match shape.pointer_mut(parent).expect("a field of the box") {
+            Value::Object(fields) => {
+                fields.insert(key.to_string(), value.clone());
+            }
+            Value::Array(items) => items[key.parse::<usize>().expect("an index")] = value.clone(),
+            other => panic!("{parent} is {other}"),
+        }
+        match with("/objects/2/shape", shape) {
+            Ok(_) => panic!("{edit} = {value} was accepted"),
+            Err(e) => {
+                assert_eq!(e.path, path, "{edit} = {value}: {e}");
+                assert!(e.problem.contains(word), "{e} lacks `{word}`");
+            }
+        }
+    }
+    refuses("/size/1", json!(0), "objects[2].shape.size[1]", "> 0");
+    refuses("/size/2", json!(2e6), "objects[2].shape.size[2]", "between");
+    // Parse errors inside a shape name the shape (scenes/README.md, Conventions).
+    refuses("/size", json!([1, 1]), "objects[2].shape", "length 3");
+    refuses(
+        "/waves/amplitude",
+        json!(-0.1),
+        "objects[2].shape.waves.amplitude",
+        ">= 0",
+    );
+    refuses(
+        "/waves/amplitude",
+        json!(0.5),
+        "objects[2].shape.waves.amplitude",
+        "half",
+    );
+    refuses(
+        "/waves/wavelength",
+        json!(0),
+        "objects[2].shape.waves.wavelength",
+        "> 0",
+    );
+    refuses(
+        "/waves/segments",
+        json!(0),
+        "objects[2].shape.waves.segments",
+        "from 1 to 1024",
+    );
+    refuses(
+        "/waves/segments",
+        json!(1025),
+        "objects[2].shape.waves.segments",
+        "1024",
+    );
+    let mut unknown = wavy;
+    unknown["waves"]["height"] = json!(1);
+    let e = with("/objects/2/shape", unknown).expect_err("an unknown field is refused");
+    assert!(e.path.starts_with("objects[2].shape"), "{e}");
+    assert!(e.problem.contains("unknown field `height`"), "{e}");
+}
