@@ -45,6 +45,8 @@ fn every_example_scene_loads_and_validates() {
             "bumpy-sphere.json",
             "caustic.json",
             "glass-sphere.json",
+            "pool-full.json",
+            "pool.json",
             "tiny.json"
         ]
     );
@@ -61,9 +63,19 @@ fn the_examples_have_the_documented_sizes() {
         (tiny.film.width, tiny.film.height, tiny.film.spp),
         (32, 24, 1)
     );
-    // The README's first command renders it: a size a person enjoys.
     let caustic = load("caustic.json");
     assert_eq!((caustic.film.width, caustic.film.height), (640, 480));
+    // The README's first command renders the quick pool (about 30 s on two cores); its picture
+    // is the full one, the same scene at 2.5 times the resolution.
+    let (quick, full) = (load("pool.json"), load("pool-full.json"));
+    assert_eq!((quick.film.width, quick.film.height), (256, 144));
+    assert_eq!((full.film.width, full.film.height), (640, 360));
+    let (mut same, mut other) = (quick.clone(), full.clone());
+    same.film.width = 0;
+    same.film.height = 0;
+    other.film.width = 0;
+    other.film.height = 0;
+    assert_eq!(same, other, "the quick and full pools differ only in their size");
     for name in ["glass-sphere.json", "bumpy-sphere.json"] {
         let scene = load(name);
         assert_eq!(
