@@ -75,7 +75,10 @@ fn the_examples_have_the_documented_sizes() {
     same.film.height = 0;
     other.film.width = 0;
     other.film.height = 0;
-    assert_eq!(same, other, "the quick and full pools differ only in their size");
+    assert_eq!(
+        same, other,
+        "the quick and full pools differ only in their size"
+    );
     for name in ["glass-sphere.json", "bumpy-sphere.json"] {
         let scene = load(name);
         assert_eq!(

@@ -180,6 +180,53 @@ fn the_sun_through_a_flat_surface_lights_the_floor_as_energy_conservation_says()
     assert!(worst < 2e-5, "worst relative error {worst}");
 }
 
+/// The pool of the test above built from `box` shapes instead of OBJ files (the water
+/// 40 × 40 × 2 and the floor 20 × 20 × 0.5, turned z-up): the same closed form, through the
+/// receiver connection, so the box's faces, normals and winding are what the OBJ boxes' are.
+#[test]
+fn a_pool_of_box_shapes_lights_its_floor_as_energy_conservation_says() {
+    let e = 2.0;
+    let mut worst: f64 = 0.0;
+    for sun in [DVec3::new(0.0, 0.0, -1.0), DVec3::new(1.0, 0.45, -0.8)] {
+        for sigma in [0.0, 0.5] {
+            let scene = scene(
+                json!([
+                    {"shape": {"type": "box", "size": [40, 2, 40]},
+                     "transform": {"rotate_deg": [90, 0, 0], "translate": [0, 0, -1]},
+                     "material": {"type": "dielectric", "eta": ETA, "medium": {
+                         "sigma_t": [sigma, sigma, sigma], "albedo": [0.5, 0.5, 0.5]}}},
+                    {"shape": {"type": "box", "size": [20, 0.5, 20]},
+                     "transform": {"rotate_deg": [90, 0, 0], "translate": [0, 0, -1.25]},
+                     "material": {"type": "diffuse", "reflectance": [RHO, RHO, RHO]}}
+                ]),
+                json!([{"type": "directional", "direction": sun.to_array(),
+                        "irradiance": [e, e, e]}]),
+                Assets::new(),
+            );
+            let cos_i = -sun.normalize().z;
+            let cos_t = cos_refracted(ETA, cos_i);
+            let truth =
+                RHO / PI * (1.0 - fresnel_air_to(ETA, cos_i)) * e * cos_i * (-sigma / cos_t).exp();
+            for on_floor in [DVec3::new(0.3, -0.2, -1.0), DVec3::new(-4.0, 6.5, -1.0)] {
+                let entry = on_floor + DVec3::new(0.1, 0.05, 1.0);
+                let (segment, receiver) = floor_segment(&scene, entry, on_floor);
+                let mut stats = RenderStats::default();
+                let mut sampler = Sampler::new(7, 1, 2, 0);
+                let value = through_boundary(&scene, &segment, &receiver, &mut sampler, &mut stats);
+                let error = value.x / truth - 1.0;
+                println!(
+                    "sun {sun}, σt {sigma}, floor {on_floor}: {:.8e} vs {truth:.8e} ({error:+.2e})",
+                    value.x
+                );
+                assert_eq!(stats.samples, 1, "one refraction point per receiver");
+                worst = worst.max(error.abs());
+            }
+        }
+    }
+    println!("worst relative error {worst:.2e}");
+    assert!(worst < 2e-5, "worst relative error {worst}");
+}
+
 /// At η = 1 the boundary bends nothing and reflects nothing: the floor under the sun gets
 /// `E cos θ e^{−σ_t d/cos θ}`, from the straight path (and through a point light's, `I cos θ
 /// e^{−σ_t d/cos θ} / r²`).
