@@ -72,6 +72,10 @@ pub struct RenderArgs {
     /// black at 0 and white at 10 % or more, to see where the image is still noisy.
     #[arg(long)]
     pub error_png: bool,
+    /// Render even when a dielectric's medium gets no light (every light reaches it only
+    /// through a second refractive interface, which is not modelled): it comes out black.
+    #[arg(long)]
+    pub allow_blocked: bool,
 }
 
 impl RenderArgs {
@@ -175,6 +179,21 @@ fn check_output(output: &std::path::Path) -> Result<()> {
     Ok(())
 }
 
+/// Refuses, before any rendering, a scene in which a medium gets no light and so would render
+/// black, unless `--allow-blocked` says to go on.
+fn refuse_unlit_media(scene: &Scene, args: &RenderArgs) -> Result<()> {
+    let unlit = scene.unlit_media();
+    if unlit.is_empty() || args.allow_blocked {
+        return Ok(());
+    }
+    bail!(
+        "{}: {}; add --allow-blocked to render it anyway (see scenes/README.md, \
+         \"What single scattering models\")",
+        args.scene.display(),
+        unlit.join("; ")
+    )
+}
+
 /// `--workers N`: through the embedded farm.
 async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
     let started = Instant::now();
@@ -187,9 +206,11 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
         check_crop(crop, desc.film.width, desc.film.height).map_err(|e| anyhow!("--{e}"))?;
     }
     // The workers build the scene again; here it is built once to say the single-scattering plan.
-    let provenance = Scene::build(&files.desc, &files.assets)
-        .map(|scene| provenance(&scene))
+    let scene = Scene::build(&files.desc, &files.assets)
         .with_context(|| format!("invalid scene {}", args.scene.display()))?;
+    refuse_unlit_media(&scene, args)?;
+    let provenance = provenance(&scene);
+    drop(scene);
     print_plan(&provenance.plan);
     drop(files);
     let result = crate::local_farm::render(workers, |api| async move {
@@ -257,6 +278,7 @@ fn in_process(args: &RenderArgs) -> Result<()> {
     for warning in scene.warnings() {
         eprintln!("warning: {warning}");
     }
+    refuse_unlit_media(&scene, args)?;
     let provenance = provenance(&scene);
     print_plan(&provenance.plan);
 

@@ -160,3 +160,54 @@ fn outputs_that_cannot_be_written_as_asked_are_refused_before_rendering() {
     );
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
+
+/// A medium that no light reaches (a glass sphere inside another, lit from the air) would come
+/// out black: refused before rendering, naming the object and the way to go on, on the local
+/// farm and in this process alike; `--allow-blocked` renders it.
+#[test]
+fn a_medium_no_light_reaches_is_refused_unless_allowed() {
+    let dir = tempfile::tempdir().unwrap();
+    let glass = |radius: f64| {
+        serde_json::json!({"shape": {"type": "icosphere", "radius": radius, "subdivisions": 2},
+            "material": {"type": "dielectric", "eta": 1.33,
+                         "medium": {"sigma_t": [1, 1, 1], "albedo": [0.5, 0.5, 0.5]}}})
+    };
+    let scene = serde_json::json!({
+        "camera": {"position": [0, 0, 5], "look_at": [0, 0, 0], "fov_y": 30},
+        "film": {"width": 8, "height": 6, "spp": 1},
+        "lights": [{"type": "point", "position": [0, 5, 2], "intensity": [5, 5, 5]}],
+        "objects": [glass(1.0), glass(0.4)]
+    });
+    let scene_path = dir.path().join("nested.json");
+    std::fs::write(&scene_path, scene.to_string()).unwrap();
+    let out = dir.path().join("nested.exr");
+    let run = |extra: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_spindle"))
+            .args([
+                "render",
+                scene_path.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+            ])
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    for workers in [&["--workers", "0"][..], &["--workers", "1"][..]] {
+        let refused = run(workers);
+        let stderr = String::from_utf8_lossy(&refused.stderr);
+        assert!(!refused.status.success(), "{workers:?} rendered: {stderr}");
+        assert!(
+            stderr.contains("objects[1] gets no light") && stderr.contains("--allow-blocked"),
+            "{workers:?}: {stderr}"
+        );
+        assert!(!out.exists(), "nothing is written");
+    }
+    let allowed = run(&["--workers", "0", "--allow-blocked"]);
+    assert!(
+        allowed.status.success(),
+        "{}",
+        String::from_utf8_lossy(&allowed.stderr)
+    );
+    assert!(out.is_file());
+}

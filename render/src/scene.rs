@@ -306,6 +306,38 @@ impl Scene {
         &self.second_interfaces
     }
 
+    /// Sentences naming each dielectric object that no light reaches through one interface —
+    /// every light is in another medium, or in the air wholly behind another dielectric (a
+    /// second interface, not modelled; an object nested inside another is one) — so its medium
+    /// would render black. Empty when the scene has no lights (a dark scene is what was asked).
+    pub fn unlit_media(&self) -> Vec<String> {
+        if self.lights.is_empty() {
+            return Vec::new();
+        }
+        let mut unlit = Vec::new();
+        for (o, object) in self.objects.iter().enumerate() {
+            if !matches!(object.material, Material::Dielectric(_)) {
+                continue;
+            }
+            let reaches = |j: usize| match self.light_media[j] {
+                Some(medium) => medium == o,
+                None => !self
+                    .second_interfaces
+                    .iter()
+                    .any(|s| s.object == o && s.light == j && s.share >= 1.0),
+            };
+            if !(0..self.lights.len()).any(reaches) {
+                unlit.push(format!(
+                    "{} gets no light: every light reaches its medium only through a second \
+                     refractive interface (another dielectric in the way, or the light in \
+                     another medium), which is not modelled, so it would render black",
+                    object.name
+                ));
+            }
+        }
+        unlit
+    }
+
     /// The dielectric object whose medium holds light `light` (it lights that medium along
     /// straight paths, with no interface), if any.
     pub fn light_medium(&self, light: usize) -> Option<usize> {

@@ -89,4 +89,34 @@ fn a_nested_sphere_is_found_and_fully_behind_the_outer_one() {
         .expect("the inner sphere is reported");
     assert_eq!(inner.share, 1.0);
     assert!(s.warnings().iter().any(|w| w.contains("lies inside")));
+    // No light reaches the inner medium: said, so the render can be refused before it starts.
+    let unlit = s.unlit_media();
+    assert_eq!(unlit.len(), 1, "{unlit:?}");
+    assert!(
+        unlit[0].starts_with("objects[1] gets no light"),
+        "{unlit:?}"
+    );
+}
+
+#[test]
+fn a_medium_partly_shadowed_or_lit_from_inside_is_not_unlit() {
+    // Partly behind another sphere: lit elsewhere.
+    let s = scene(
+        json!([glass(1.0, [0.0, 0.0, 0.0]), glass(0.5, [0.0, 0.0, 3.0])]),
+        [0.0, 0.0, 1000.0],
+    );
+    assert!(!s.second_interfaces().is_empty());
+    assert_eq!(s.unlit_media(), Vec::<String>::new());
+    // A light inside one medium lights it directly, and reaches another only through two
+    // interfaces: that one is unlit.
+    let s = scene(
+        json!([glass(1.0, [0.0, 0.0, 0.0]), glass(0.5, [4.0, 0.0, 0.0])]),
+        [0.1, 0.0, 0.0],
+    );
+    let unlit = s.unlit_media();
+    assert_eq!(unlit.len(), 1, "{unlit:?}");
+    assert!(
+        unlit[0].starts_with("objects[1] gets no light"),
+        "{unlit:?}"
+    );
 }
