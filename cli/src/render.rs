@@ -181,15 +181,19 @@ fn check_output(output: &std::path::Path) -> Result<()> {
 
 /// Refuses, before any rendering, a scene in which a medium gets no light and so would render
 /// black, unless `--allow-blocked` says to go on.
-fn refuse_unlit_media(scene: &Scene, args: &RenderArgs) -> Result<()> {
+pub fn refuse_unlit_media(
+    scene: &Scene,
+    path: &std::path::Path,
+    allow_blocked: bool,
+) -> Result<()> {
     let unlit = scene.unlit_media();
-    if unlit.is_empty() || args.allow_blocked {
+    if unlit.is_empty() || allow_blocked {
         return Ok(());
     }
     bail!(
         "{}: {}; add --allow-blocked to render it anyway (see scenes/README.md, \
          \"What single scattering models\")",
-        args.scene.display(),
+        path.display(),
         unlit.join("; ")
     )
 }
@@ -208,7 +212,7 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
     // The workers build the scene again; here it is built once to say the single-scattering plan.
     let scene = Scene::build(&files.desc, &files.assets)
         .with_context(|| format!("invalid scene {}", args.scene.display()))?;
-    refuse_unlit_media(&scene, args)?;
+    refuse_unlit_media(&scene, &args.scene, args.allow_blocked)?;
     let provenance = provenance(&scene);
     drop(scene);
     print_plan(&provenance.plan);
@@ -278,7 +282,7 @@ fn in_process(args: &RenderArgs) -> Result<()> {
     for warning in scene.warnings() {
         eprintln!("warning: {warning}");
     }
-    refuse_unlit_media(&scene, args)?;
+    refuse_unlit_media(&scene, &args.scene, args.allow_blocked)?;
     let provenance = provenance(&scene);
     print_plan(&provenance.plan);
 

@@ -59,6 +59,10 @@ pub struct SubmitArgs {
     /// With --wait: download the final EXR here when the job is done.
     #[arg(short, long, requires = "wait")]
     pub output: Option<std::path::PathBuf>,
+    /// Submit even when a dielectric's medium gets no light (every light reaches it only
+    /// through a second refractive interface, which is not modelled): it comes out black.
+    #[arg(long)]
+    pub allow_blocked: bool,
 }
 
 /// Runs `spindle submit`: prints the job id on stdout; with `--wait`, fails unless the job ends
@@ -88,7 +92,10 @@ pub async fn run(api: &Api, args: &SubmitArgs) -> Result<()> {
             scene.film.seed = seed;
         }
     };
-    let job = submit_scene_file(api, &args.scene, Some(&edit), Check::Build, &options).await?;
+    let check = Check::Build {
+        allow_blocked: args.allow_blocked,
+    };
+    let job = submit_scene_file(api, &args.scene, Some(&edit), check, &options).await?;
     println!("{}", job.id);
     if args.wait {
         let end = wait_for(api, job.id, Wait::default()).await?;
@@ -103,8 +110,9 @@ pub async fn run(api: &Api, args: &SubmitArgs) -> Result<()> {
 /// Whether [`submit_scene_file`] builds the scene before sending it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Check {
-    /// Build it with the renderer, as `render --workers 0` does, and refuse if it does not build.
-    Build,
+    /// Build it with the renderer, as `render --workers 0` does, and refuse if it does not build
+    /// or, unless `allow_blocked`, if a medium in it gets no light.
+    Build { allow_blocked: bool },
     /// The caller has just built this very scene.
     AlreadyBuilt,
 }
@@ -141,9 +149,10 @@ pub async fn submit_scene_file(
         spindle_common::protocol::check_crop(crop, film.width, film.height)
             .map_err(|e| anyhow::anyhow!("--{e}"))?;
     }
-    if check == Check::Build {
-        spindle_render::Scene::build(&files.desc, &files.assets)
+    if let Check::Build { allow_blocked } = check {
+        let scene = spindle_render::Scene::build(&files.desc, &files.assets)
             .with_context(|| format!("invalid scene {}", scene_path.display()))?;
+        crate::render::refuse_unlit_media(&scene, scene_path, allow_blocked)?;
     }
     // Hash every mesh and upload the ones the coordinator has not seen.
     let mut table = BTreeMap::new();

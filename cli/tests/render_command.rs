@@ -163,7 +163,7 @@ fn outputs_that_cannot_be_written_as_asked_are_refused_before_rendering() {
 
 /// A medium that no light reaches (a glass sphere inside another, lit from the air) would come
 /// out black: refused before rendering, naming the object and the way to go on, on the local
-/// farm and in this process alike; `--allow-blocked` renders it.
+/// farm, in this process and by `spindle submit` alike; `--allow-blocked` renders it.
 #[test]
 fn a_medium_no_light_reaches_is_refused_unless_allowed() {
     let dir = tempfile::tempdir().unwrap();
@@ -203,6 +203,19 @@ fn a_medium_no_light_reaches_is_refused_unless_allowed() {
         );
         assert!(!out.exists(), "nothing is written");
     }
+    // `spindle submit` builds the scene before it talks to a coordinator: refused the same way
+    // (the address is a closed port, never reached).
+    let submitted = Command::new(env!("CARGO_BIN_EXE_spindle"))
+        .args(["submit", scene_path.to_str().unwrap()])
+        .args(["--server", "http://127.0.0.1:9"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&submitted.stderr);
+    assert!(!submitted.status.success(), "submit went on: {stderr}");
+    assert!(
+        stderr.contains("objects[1] gets no light") && stderr.contains("--allow-blocked"),
+        "submit: {stderr}"
+    );
     let allowed = run(&["--workers", "0", "--allow-blocked"]);
     assert!(
         allowed.status.success(),
