@@ -19,12 +19,13 @@ use spindle_common::image::Image;
 use spindle_common::protocol::{DEFAULT_TILE_SIZE, check_crop};
 use spindle_common::provenance::Provenance;
 use spindle_common::scene::SceneDescription;
+use spindle_common::scene_override::{Override, apply_overrides};
 use spindle_common::stats::RenderStats;
 use spindle_common::tile::LAYER_NAMES;
 use spindle_common::tile::TileRect;
 use spindle_render::{Scene, provenance, render_pixel};
 
-use spindle_common::scene_files::load_scene;
+use spindle_common::scene_files::{load_scene, read_meshes};
 
 /// `spindle render` options.
 #[derive(Debug, clap::Args)]
@@ -39,6 +40,11 @@ pub struct RenderArgs {
     /// process without the farm.
     #[arg(long)]
     pub workers: Option<usize>,
+    /// Set a scene field without editing the file: `--set objects[0].material.eta=1.33`
+    /// (the path as validation messages write it; the value as JSON, or else a string).
+    /// Repeatable; checked as the scene file is.
+    #[arg(long = "set", short = 'D', value_name = "PATH=VALUE")]
+    pub set: Vec<Override>,
     /// Camera samples per pixel (overrides `film.spp`).
     #[arg(long)]
     pub spp: Option<u32>,
@@ -87,7 +93,8 @@ impl RenderArgs {
     }
 
     /// Applies `--spp`, `--seed` and `--no-time-budget` to a scene.
-    fn edit(&self, scene: &mut SceneDescription) {
+    fn edit(&self, scene: &mut SceneDescription) -> Result<()> {
+        *scene = apply_overrides(scene, &self.set).map_err(|e| anyhow!("--set {e}"))?;
         if let Some(spp) = self.spp {
             scene.film.spp = spp;
         }
@@ -97,6 +104,7 @@ impl RenderArgs {
         if let Some(seed) = self.seed {
             scene.film.seed = seed;
         }
+        Ok(())
     }
 }
 
@@ -203,7 +211,8 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
     let started = Instant::now();
     // Read and check the scene here first, so a mistake is reported before any farm starts.
     let mut files = load_scene(&args.scene)?;
-    args.edit(&mut files.desc);
+    args.edit(&mut files.desc)?;
+    read_meshes(&args.scene, &files.desc, &mut files.assets)?;
     let mut desc = files.desc.clone();
     let files_spp = desc.film.spp;
     if let Some(crop) = &args.crop {
@@ -274,7 +283,8 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
 fn in_process(args: &RenderArgs) -> Result<()> {
     let started = Instant::now();
     let mut files = load_scene(&args.scene)?;
-    args.edit(&mut files.desc);
+    args.edit(&mut files.desc)?;
+    read_meshes(&args.scene, &files.desc, &mut files.assets)?;
     let scene = Scene::build(&files.desc, &files.assets)
         .with_context(|| format!("invalid scene {}", args.scene.display()))?;
     let summary = scene.summary();

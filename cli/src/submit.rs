@@ -15,11 +15,12 @@ use std::path::Path;
 use anyhow::{Context, Result};
 use spindle_common::protocol::{DEFAULT_TILE_SIZE, JobInfo, SubmitJob, asset_hash, parse_label};
 use spindle_common::scene::SceneDescription;
+use spindle_common::scene_override::{Override, apply_overrides};
 
 use crate::api::Api;
 use crate::progress::{Wait, wait_for};
 use crate::secret::random_hex;
-use spindle_common::scene_files::load_scene;
+use spindle_common::scene_files::{load_scene, read_meshes};
 
 /// `spindle submit` options.
 #[derive(Debug, clap::Args)]
@@ -45,6 +46,11 @@ pub struct SubmitArgs {
     /// Who submits it, a label shown in `spindle jobs` (default: $USER).
     #[arg(long)]
     pub submitter: Option<String>,
+    /// Set a scene field without editing the file: `--set objects[0].material.eta=1.33`
+    /// (the path as validation messages write it; the value as JSON, or else a string).
+    /// Repeatable; checked as the scene file is.
+    #[arg(long = "set", short = 'D', value_name = "PATH=VALUE")]
+    pub set: Vec<Override>,
     /// Camera samples per pixel (overrides `film.spp`).
     #[arg(long)]
     pub spp: Option<u32>,
@@ -84,13 +90,15 @@ pub async fn run(api: &Api, args: &SubmitArgs) -> Result<()> {
             .filter(|s| !s.is_empty()),
         crop: args.crop,
     };
-    let edit = |scene: &mut SceneDescription| {
+    let edit = |scene: &mut SceneDescription| -> Result<()> {
+        *scene = apply_overrides(scene, &args.set).map_err(|e| anyhow::anyhow!("--set {e}"))?;
         if let Some(spp) = args.spp {
             scene.film.spp = spp;
         }
         if let Some(seed) = args.seed {
             scene.film.seed = seed;
         }
+        Ok(())
     };
     let check = Check::Build {
         allow_blocked: args.allow_blocked,
@@ -134,13 +142,14 @@ pub struct JobOptions {
 pub async fn submit_scene_file(
     api: &Api,
     scene_path: &Path,
-    edit: Option<&dyn Fn(&mut SceneDescription)>,
+    edit: Option<&dyn Fn(&mut SceneDescription) -> Result<()>>,
     check: Check,
     options: &JobOptions,
 ) -> Result<JobInfo> {
     let mut files = load_scene(scene_path)?;
     if let Some(edit) = edit {
-        edit(&mut files.desc);
+        edit(&mut files.desc)?;
+        read_meshes(scene_path, &files.desc, &mut files.assets)?;
     }
     // The coordinator checks the crop too (a 400 naming `crop`); here it is refused before
     // any mesh is uploaded.

@@ -224,3 +224,51 @@ fn a_medium_no_light_reaches_is_refused_unless_allowed() {
     );
     assert!(out.is_file());
 }
+
+/// `--set PATH=VALUE` changes one field without editing the file, checked as the file is: the
+/// image has the overridden size, and a bad override is refused naming its path.
+#[test]
+fn set_overrides_a_scene_field_and_is_checked_like_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("tiny.exr");
+    let scene_path = repo().join("scenes/tiny.json");
+    let run = |sets: &[&str]| {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_spindle"));
+        command.args([
+            "render",
+            scene_path.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        command.args(["--workers", "0"]);
+        for set in sets {
+            command.args(["--set", set]);
+        }
+        command.output().unwrap()
+    };
+    let done = run(&[
+        "film.width=12",
+        "film.height=10",
+        "objects[1].material.eta=1.2",
+    ]);
+    assert!(
+        done.status.success(),
+        "{}",
+        String::from_utf8_lossy(&done.stderr)
+    );
+    let image = read_exr(&out).unwrap();
+    assert_eq!((image.width, image.height), (12, 10));
+    for (set, path) in [
+        ("film.width=0", "film.width"),
+        ("objects[7].material.eta=1.2", "objects[7].material.eta"),
+        ("film.colour=1", "film.colour"),
+    ] {
+        let refused = run(&[set]);
+        let stderr = String::from_utf8_lossy(&refused.stderr);
+        assert!(!refused.status.success(), "{set} was accepted");
+        assert!(
+            stderr.contains(&format!("--set {path}: ")),
+            "{set}: {stderr}"
+        );
+    }
+}

@@ -11,6 +11,7 @@ pub mod protocol;
 pub mod provenance;
 pub mod scene;
 pub mod scene_files;
+pub mod scene_override;
 pub mod stats;
 pub mod tile;
 pub mod tile_encoding;

@@ -47,8 +47,19 @@ pub fn load_scene(path: &Path) -> Result<SceneFiles, SceneFileError> {
         path: path.to_path_buf(),
         source,
     })?;
-    let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let mut assets = HashMap::new();
+    read_meshes(path, &desc, &mut assets)?;
+    Ok(SceneFiles { desc, assets })
+}
+
+/// Reads every OBJ that `desc` names and `assets` lacks, relative to the directory of the scene
+/// file `path` (after a scene is edited, say `--set objects[0].shape.path=…`).
+pub fn read_meshes(
+    path: &Path,
+    desc: &SceneDescription,
+    assets: &mut HashMap<String, Vec<u8>>,
+) -> Result<(), SceneFileError> {
+    let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
     for (index, object) in desc.objects.iter().enumerate() {
         if let Shape::Obj { path: obj, .. } = &object.shape {
             if assets.contains_key(obj) {
@@ -63,5 +74,5 @@ pub fn load_scene(path: &Path) -> Result<SceneFiles, SceneFileError> {
             assets.insert(obj.clone(), bytes);
         }
     }
-    Ok(SceneFiles { desc, assets })
+    Ok(())
 }
