@@ -10,6 +10,7 @@ use crate::passes::TileProgress;
 use crate::stats::RenderStats;
 
 /// A rectangle of pixels: columns `x .. x + width`, rows `y .. y + height` (row 0 at the top).
+/// Displayed for people as "32 × 32 pixels at x 0, y 64".
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, utoipa::ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct TileRect {
@@ -17,6 +18,18 @@ pub struct TileRect {
     pub y: u32,
     pub width: u32,
     pub height: u32,
+}
+
+impl std::fmt::Display for TileRect {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let TileRect {
+            x,
+            y,
+            width,
+            height,
+        } = self;
+        write!(f, "{width} × {height} pixels at x {x}, y {y}")
+    }
 }
 
 impl TileRect {
@@ -378,5 +391,16 @@ mod tests {
         let mut one_pass = tile.clone();
         one_pass.progress = None;
         assert_eq!(TilePixels::stack(vec![one_pass.band(0, 5)]), one_pass);
+    }
+
+    #[test]
+    fn a_rectangle_reads_as_words() {
+        let rect = TileRect {
+            x: 0,
+            y: 64,
+            width: 32,
+            height: 16,
+        };
+        assert_eq!(rect.to_string(), "32 × 16 pixels at x 0, y 64");
     }
 }

@@ -397,7 +397,7 @@ impl Worker {
         {
             return Ok(Rendered::Failed {
                 reason: format!(
-                    "lease rect {rect:?} is not inside the {}x{} film",
+                    "the leased tile of {rect} is not inside the {} × {} film",
                     film.width, film.height
                 ),
                 deterministic: false,
