@@ -2,8 +2,9 @@
 //! changes, finished tiles, workers joining, draining and lost.
 //!
 //! Every event gets the next id (1, 2, …). The newest [`EVENT_RING`] are kept in memory so a
-//! client reconnecting with `Last-Event-ID` gets what it missed; one whose id has left the ring
-//! gets a `reset` event instead and refetches the state. Subscribers are fed through a bounded
+//! client reconnecting with `Last-Event-ID` gets what it missed; one whose id has left the ring,
+//! or is past the newest (it counted on a coordinator before this one started: ids begin again
+//! at 1 with every start), gets a `reset` event instead and refetches the state. Subscribers are fed through a bounded
 //! broadcast channel ([`EVENT_CHANNEL`]): one that falls that far behind is dropped (its stream
 //! ends; it reconnects with its last id), never buffered without bound. At most
 //! [`MAX_EVENT_SUBSCRIBERS`] streams are open at once.
@@ -109,17 +110,22 @@ impl Events {
         }
         let ring = self.ring();
         let live = self.sender.subscribe();
+        let reset = || {
+            vec![Arc::new(FarmEvent {
+                id: ring.last_id,
+                at_ms: now_ms(),
+                kind: EventKind::Reset,
+            })]
+        };
         let backlog = match last_id {
             None => Vec::new(),
-            Some(id) if id >= ring.last_id => Vec::new(),
+            Some(id) if id == ring.last_id => Vec::new(),
+            // An id this log never gave: whatever the client holds is of another log.
+            Some(id) if id > ring.last_id => reset(),
             Some(id) => {
                 let oldest = ring.events.front().map_or(ring.last_id + 1, |e| e.id);
                 if id + 1 < oldest {
-                    vec![Arc::new(FarmEvent {
-                        id: ring.last_id,
-                        at_ms: now_ms(),
-                        kind: EventKind::Reset,
-                    })]
+                    reset()
                 } else {
                     ring.events.iter().filter(|e| e.id > id).cloned().collect()
                 }
@@ -163,6 +169,22 @@ mod tests {
             reset.backlog[0].id, 5,
             "resume after the reset from the newest id"
         );
+    }
+
+    #[test]
+    fn an_id_from_the_future_gets_a_reset_not_silence() {
+        // A client that followed a coordinator before this one started: its id is past ours.
+        let events = Events::with_capacity(3);
+        let fresh = events.subscribe(Some(41)).unwrap();
+        assert_eq!(fresh.backlog.len(), 1);
+        assert_eq!(fresh.backlog[0].kind, EventKind::Reset);
+        assert_eq!(fresh.backlog[0].id, 0);
+        events.publish(joined(1));
+        events.publish(joined(2));
+        let later = events.subscribe(Some(3)).unwrap();
+        assert_eq!(later.backlog.len(), 1);
+        assert_eq!(later.backlog[0].kind, EventKind::Reset);
+        assert_eq!(later.backlog[0].id, 2, "resume from the newest id");
     }
 
     #[tokio::test]

@@ -22,7 +22,8 @@ pub(super) fn routes() -> Declared {
 /// Follows the farm: job state changes, finished tiles, workers joining, draining and lost, as
 /// Server-Sent Events (`id:` the event id, `event:` its type, `data:` a `FarmEvent`). With
 /// `Last-Event-ID`, the events after it come first (or a `reset` when they are no longer
-/// kept). A client too slow to keep up is disconnected; it reconnects with its last id.
+/// kept, or when the id is past the newest: a coordinator counts from 1 again at every start).
+/// A client too slow to keep up is disconnected; it reconnects with its last id.
 #[utoipa::path(get, path = "/v1/events",
     params(("Last-Event-ID" = Option<i64>, Header, nullable = false, minimum = 0, description = "the last event id received")),
     responses((status = 200, content_type = "text/event-stream", body = SseFarmEvent),
