@@ -1,10 +1,10 @@
 //! `GET /v1/events`: the live event stream (Server-Sent Events) of [`crate::events`].
 
 use std::convert::Infallible;
+use std::net::SocketAddr;
 use std::sync::Arc;
 
-use axum::extract::State;
-use axum::http::HeaderMap;
+use axum::extract::{ConnectInfo, Request, State};
 use axum::response::sse::{Event, KeepAlive, Sse};
 use futures_util::stream::{self, Stream, StreamExt};
 use spindle_common::protocol::{ApiError, FarmEvent, SseFarmEvent};
@@ -27,12 +27,17 @@ pub(super) fn routes() -> Declared {
 #[utoipa::path(get, path = "/v1/events",
     params(("Last-Event-ID" = Option<i64>, Header, nullable = false, minimum = 0, description = "the last event id received")),
     responses((status = 200, content_type = "text/event-stream", body = SseFarmEvent),
-              (status = 400, body = ApiError), (status = 503, body = ApiError)))]
+              (status = 400, body = ApiError), (status = 429, body = ApiError),
+              (status = 503, body = ApiError)))]
 async fn events(
     State(state): State<AppState>,
-    headers: HeaderMap,
+    request: Request,
 ) -> Result<Sse<impl Stream<Item = Result<Event, Infallible>>>, Error> {
-    let last_id = match headers.get("last-event-id") {
+    let peer = request
+        .extensions()
+        .get::<ConnectInfo<SocketAddr>>()
+        .map(|c| c.0.ip());
+    let last_id = match request.headers().get("last-event-id") {
         None => None,
         Some(v) => Some(
             v.to_str()
@@ -44,7 +49,7 @@ async fn events(
                 })?,
         ),
     };
-    let sub = state.events().subscribe(last_id)?;
+    let sub = state.events().subscribe(last_id, peer)?;
     let backlog = stream::iter(sub.backlog);
     // Ends at the first error: the subscriber lagged (dropped) or the log is gone.
     let live = stream::unfold((sub.live, sub.slot), |(mut rx, slot)| async move {
