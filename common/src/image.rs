@@ -35,13 +35,13 @@ use crate::tile::{LAYER_NAMES, TilePixels, TileRect};
 pub enum ImageError {
     /// The tile does not lie inside the image's window of the film.
     #[error(
-        "tile {rect:?} lies outside the image's window {window:?} of the film (it must \
+        "the tile of {rect} lies outside the image's window of the film, {window} (it must \
          satisfy window.x <= x, x + width <= window.x + window.width, and the same for y)"
     )]
     TileOutside { rect: TileRect, window: TileRect },
     /// The image's window does not lie inside its film.
     #[error(
-        "the window {window:?} is not inside the {film_width}x{film_height} film (x + width \
+        "the window of {window} is not inside the {film_width}x{film_height} film (x + width \
          must be <= {film_width} and y + height <= {film_height})"
     )]
     WindowOutside {
@@ -50,7 +50,7 @@ pub enum ImageError {
         film_height: u32,
     },
     /// The tile covers no pixel.
-    #[error("tile {rect:?} is empty (width and height must be >= 1)")]
+    #[error("the tile of {rect} is empty (width and height must be >= 1)")]
     EmptyTile { rect: TileRect },
     /// A layer buffer of a tile or an image has the wrong number of samples.
     #[error("layer `{layer}` has {actual} samples, expected {expected} (3 per pixel)")]

@@ -10,6 +10,7 @@ use crate::passes::TileProgress;
 use crate::stats::RenderStats;
 
 /// A rectangle of pixels: columns `x .. x + width`, rows `y .. y + height` (row 0 at the top).
+/// Displayed for people as "32 × 32 pixels at x 0, y 64".
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, utoipa::ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct TileRect {
@@ -19,10 +20,34 @@ pub struct TileRect {
     pub height: u32,
 }
 
+impl std::fmt::Display for TileRect {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let TileRect {
+            x,
+            y,
+            width,
+            height,
+        } = self;
+        write!(f, "{width} × {height} pixels at x {x}, y {y}")
+    }
+}
+
 impl TileRect {
     /// Number of pixels in the rectangle.
     pub fn pixel_count(&self) -> usize {
         self.width as usize * self.height as usize
+    }
+
+    /// Rows `first .. first + count` of the rectangle, counted from its top and cut at its
+    /// bottom: a band as wide as the rectangle.
+    pub fn rows(&self, first: u32, count: u32) -> TileRect {
+        let first = first.min(self.height);
+        TileRect {
+            x: self.x,
+            y: self.y + first,
+            width: self.width,
+            height: count.min(self.height - first),
+        }
     }
 }
 
@@ -105,6 +130,75 @@ impl TilePixels {
             &self.single_scatter,
             &self.stderr,
         ]
+    }
+
+    /// The pixels (and pass state) of the band [`TileRect::rows`]`(first, count)` of this tile;
+    /// its statistics are zero, since counters cannot be split by rows. A layer or pass state
+    /// too short for the tile's rectangle gives an empty one.
+    pub fn band(&self, first: u32, count: u32) -> TilePixels {
+        fn part<T: Clone>(values: &[T], range: std::ops::Range<usize>) -> Vec<T> {
+            values.get(range).map(<[T]>::to_vec).unwrap_or_default()
+        }
+        let rect = self.rect.rows(first, count);
+        let start = (rect.y - self.rect.y) as usize * self.rect.width as usize;
+        let pixels = start..start + rect.pixel_count();
+        let values = pixels.start * 3..pixels.end * 3;
+        TilePixels {
+            rect,
+            total: part(&self.total, values.clone()),
+            surface: part(&self.surface, values.clone()),
+            single_scatter: part(&self.single_scatter, values.clone()),
+            stderr: part(&self.stderr, values),
+            stats: RenderStats::default(),
+            progress: self.progress.as_ref().map(|p| TileProgress {
+                pass: p.pass,
+                spp: p.spp,
+                pixels: part(&p.pixels, pixels),
+            }),
+        }
+    }
+
+    /// The tile made of `bands` of one column of pixels, top to bottom (each starting on the
+    /// row below the one before): their pixels in order, their statistics added, their pass
+    /// states joined when every band has one. Each pixel keeps its bits, so a tile rendered
+    /// band by band is the tile rendered at once.
+    pub fn stack(bands: Vec<TilePixels>) -> TilePixels {
+        let first = bands.first().map_or(
+            TileRect {
+                x: 0,
+                y: 0,
+                width: 0,
+                height: 0,
+            },
+            |b| b.rect,
+        );
+        let mut tile = TilePixels::black(TileRect { height: 0, ..first });
+        let mut progress = match bands.first().and_then(|b| b.progress.as_ref()) {
+            Some(p) if bands.iter().all(|b| b.progress.is_some()) => Some(TileProgress {
+                pass: p.pass,
+                spp: p.spp,
+                pixels: Vec::with_capacity(bands.iter().map(|b| b.rect.pixel_count()).sum()),
+            }),
+            _ => None,
+        };
+        for band in bands {
+            debug_assert_eq!(
+                (band.rect.x, band.rect.width, band.rect.y),
+                (first.x, first.width, first.y + tile.rect.height),
+                "bands of one column, top to bottom"
+            );
+            tile.rect.height += band.rect.height;
+            tile.total.extend_from_slice(&band.total);
+            tile.surface.extend_from_slice(&band.surface);
+            tile.single_scatter.extend_from_slice(&band.single_scatter);
+            tile.stderr.extend_from_slice(&band.stderr);
+            tile.stats.add(&band.stats);
+            if let (Some(all), Some(p)) = (progress.as_mut(), band.progress) {
+                all.pixels.extend(p.pixels);
+            }
+        }
+        tile.progress = progress;
+        tile
     }
 }
 
@@ -254,5 +348,59 @@ mod tests {
             err.contains("value 2 is 1e39, beyond the range of 32-bit floats"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn a_tile_cut_into_bands_and_stacked_again_is_the_same_tile() {
+        let rect = TileRect {
+            x: 3,
+            y: 5,
+            width: 2,
+            height: 5,
+        };
+        let mut tile = TilePixels::black(rect);
+        for (i, v) in tile.total.iter_mut().enumerate() {
+            *v = i as f32;
+        }
+        tile.stderr[7] = 0.25;
+        tile.progress = Some(TileProgress {
+            pass: 2,
+            spp: 32,
+            pixels: (0..10)
+                .map(|taken| crate::passes::PixelSums {
+                    taken,
+                    ..Default::default()
+                })
+                .collect(),
+        });
+        assert_eq!(
+            rect.rows(3, 9),
+            TileRect {
+                x: 3,
+                y: 8,
+                width: 2,
+                height: 2
+            }
+        );
+        let band = tile.band(1, 2);
+        assert_eq!(band.rect, rect.rows(1, 2));
+        assert_eq!(band.total, (6..18).map(|v| v as f32).collect::<Vec<_>>());
+        assert_eq!(band.progress.as_ref().unwrap().pixels[0].taken, 2);
+        let bands = vec![tile.band(0, 1), tile.band(1, 2), tile.band(3, 2)];
+        assert_eq!(TilePixels::stack(bands), tile);
+        let mut one_pass = tile.clone();
+        one_pass.progress = None;
+        assert_eq!(TilePixels::stack(vec![one_pass.band(0, 5)]), one_pass);
+    }
+
+    #[test]
+    fn a_rectangle_reads_as_words() {
+        let rect = TileRect {
+            x: 0,
+            y: 64,
+            width: 32,
+            height: 16,
+        };
+        assert_eq!(rect.to_string(), "32 × 16 pixels at x 0, y 64");
     }
 }

@@ -77,7 +77,7 @@ fn resume(
     };
     if before.rect != rect {
         return Err(PassError(format!(
-            "pass {pass}: the earlier result is of tile {:?}, not {rect:?}",
+            "pass {pass}: the earlier result is of the tile of {}, not of {rect}",
             before.rect
         )));
     }

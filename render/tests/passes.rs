@@ -149,7 +149,7 @@ fn a_pass_that_does_not_follow_its_previous_result_is_refused() {
     refused(3, Some(&first), "is pass 1 at 16 spp, not pass 2 at 32");
     let mut moved = first.clone();
     moved.rect.x += 1;
-    refused(2, Some(&moved), "the earlier result is of tile");
+    refused(2, Some(&moved), "the earlier result is of the tile of");
     let mut stateless = first.clone();
     stateless.progress = None;
     refused(2, Some(&stateless), "carries no pass state");

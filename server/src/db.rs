@@ -128,6 +128,70 @@ pub fn open(path: &Path) -> anyhow::Result<Connection> {
     Ok(conn)
 }
 
+/// What an error opening or loading the database at `path` means for the operator: a file
+/// SQLite finds damaged (malformed, or not a database at all) is said to be so, with what to
+/// do about it; any other error is returned as it is.
+pub fn explain_damage(e: anyhow::Error, path: &Path) -> anyhow::Error {
+    let damage = e
+        .chain()
+        .filter_map(|cause| cause.downcast_ref::<rusqlite::Error>())
+        .find(|cause| {
+            matches!(
+                cause.sqlite_error_code(),
+                Some(rusqlite::ErrorCode::DatabaseCorrupt | rusqlite::ErrorCode::NotADatabase)
+            )
+        });
+    match damage {
+        Some(cause) => anyhow::anyhow!(
+            "the database {} is damaged: {cause}; restore it from a backup or move it away to \
+             start empty",
+            path.display()
+        ),
+        None => e,
+    }
+}
+
+/// Before the database at `path` is opened: if the file is gone but its write-ahead log is
+/// still there (the file deleted by hand, or lost), the log belongs to a database that no
+/// longer exists and must not be replayed into a new one. It is moved aside to
+/// `<log>.orphaned` (the log of an earlier such start is replaced) with a warning, and the
+/// coordinator starts with an empty database.
+pub fn set_aside_orphaned_log(path: &Path) -> anyhow::Result<()> {
+    if path.exists() {
+        return Ok(());
+    }
+    let beside = |suffix: &str| {
+        let mut name = path.as_os_str().to_owned();
+        name.push(suffix);
+        std::path::PathBuf::from(name)
+    };
+    let (log, shared) = (beside("-wal"), beside("-shm"));
+    if log.exists() {
+        let aside = beside("-wal.orphaned");
+        std::fs::rename(&log, &aside).map_err(|e| {
+            anyhow::anyhow!(
+                "moving the orphaned write-ahead log {} aside to {}: {e}",
+                log.display(),
+                aside.display()
+            )
+        })?;
+        tracing::warn!(
+            database = %path.display(),
+            log = %aside.display(),
+            "the database file is missing but its write-ahead log was there: starting with an \
+             empty database; the log is kept aside (restore the database from a backup to get \
+             its jobs back)"
+        );
+    }
+    match std::fs::remove_file(&shared) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(anyhow::anyhow!(
+            "removing the stale shared-memory file {}: {e}",
+            shared.display()
+        )),
+        _ => Ok(()),
+    }
+}
+
 fn migrate(conn: &mut Connection) -> anyhow::Result<()> {
     let version: usize = conn.pragma_query_value(None, "user_version", |r| r.get(0))?;
     if version > MIGRATIONS.len() {

@@ -2,13 +2,17 @@
 //! changes, finished tiles, workers joining, draining and lost.
 //!
 //! Every event gets the next id (1, 2, …). The newest [`EVENT_RING`] are kept in memory so a
-//! client reconnecting with `Last-Event-ID` gets what it missed; one whose id has left the ring
-//! gets a `reset` event instead and refetches the state. Subscribers are fed through a bounded
+//! client reconnecting with `Last-Event-ID` gets what it missed; one whose id has left the ring,
+//! or is past the newest (it counted on a coordinator before this one started: ids begin again
+//! at 1 with every start), gets a `reset` event instead and refetches the state. Subscribers are fed through a bounded
 //! broadcast channel ([`EVENT_CHANNEL`]): one that falls that far behind is dropped (its stream
 //! ends; it reconnects with its last id), never buffered without bound. At most
-//! [`MAX_EVENT_SUBSCRIBERS`] streams are open at once.
+//! [`MAX_EVENT_SUBSCRIBERS`] streams are open at once, and at most
+//! [`MAX_EVENT_STREAMS_PER_ADDRESS`] from one client address, so one address cannot take every
+//! place (the dashboard of another is never locked out).
 
-use std::collections::VecDeque;
+use std::collections::{HashMap, VecDeque};
+use std::net::IpAddr;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
@@ -24,12 +28,15 @@ pub const EVENT_RING: usize = 1024;
 pub const EVENT_CHANNEL: usize = 256;
 /// Event streams open at once.
 pub const MAX_EVENT_SUBSCRIBERS: usize = 32;
+/// Event streams open at once from one client address.
+pub const MAX_EVENT_STREAMS_PER_ADDRESS: usize = 4;
 
 /// The event log and its subscribers.
 pub struct Events {
     ring: Mutex<Ring>,
     sender: broadcast::Sender<Arc<FarmEvent>>,
     subscribers: Arc<AtomicUsize>,
+    by_address: StreamsByAddress,
     capacity: usize,
 }
 
@@ -46,12 +53,28 @@ pub struct Subscription {
     pub slot: SubscriberSlot,
 }
 
-/// One of the [`MAX_EVENT_SUBSCRIBERS`] places, given back on drop.
-pub struct SubscriberSlot(Arc<AtomicUsize>);
+/// Event streams open per client address (addresses with none are not kept).
+type StreamsByAddress = Arc<Mutex<HashMap<IpAddr, usize>>>;
+
+/// One of the [`MAX_EVENT_SUBSCRIBERS`] places, and of its address's
+/// [`MAX_EVENT_STREAMS_PER_ADDRESS`], given back on drop.
+pub struct SubscriberSlot {
+    total: Arc<AtomicUsize>,
+    address: Option<(StreamsByAddress, IpAddr)>,
+}
 
 impl Drop for SubscriberSlot {
     fn drop(&mut self) {
-        self.0.fetch_sub(1, Ordering::SeqCst);
+        self.total.fetch_sub(1, Ordering::SeqCst);
+        if let Some((counts, ip)) = &self.address {
+            let mut counts = counts.lock().unwrap_or_else(|p| p.into_inner());
+            if let Some(n) = counts.get_mut(ip) {
+                *n -= 1;
+                if *n == 0 {
+                    counts.remove(ip);
+                }
+            }
+        }
     }
 }
 
@@ -71,6 +94,7 @@ impl Events {
             }),
             sender: broadcast::channel(EVENT_CHANNEL).0,
             subscribers: Arc::new(AtomicUsize::new(0)),
+            by_address: Arc::default(),
             capacity: capacity.max(1),
         }
     }
@@ -97,11 +121,34 @@ impl Events {
         let _ = self.sender.send(event);
     }
 
-    /// Subscribes; `last_id` is the `Last-Event-ID` of a reconnecting client. 503 past
-    /// [`MAX_EVENT_SUBSCRIBERS`].
-    pub fn subscribe(&self, last_id: Option<u64>) -> Result<Subscription, Error> {
+    /// Subscribes; `last_id` is the `Last-Event-ID` of a reconnecting client, `peer` its
+    /// address (none in the in-process router of tests). 429 past
+    /// [`MAX_EVENT_STREAMS_PER_ADDRESS`] from `peer`, 503 past [`MAX_EVENT_SUBSCRIBERS`].
+    pub fn subscribe(
+        &self,
+        last_id: Option<u64>,
+        peer: Option<IpAddr>,
+    ) -> Result<Subscription, Error> {
         let taken = self.subscribers.fetch_add(1, Ordering::SeqCst);
-        let slot = SubscriberSlot(self.subscribers.clone());
+        let mut slot = SubscriberSlot {
+            total: self.subscribers.clone(),
+            address: None,
+        };
+        if let Some(ip) = peer {
+            let mut counts = self.by_address.lock().unwrap_or_else(|p| p.into_inner());
+            let held = counts.entry(ip).or_default();
+            if *held >= MAX_EVENT_STREAMS_PER_ADDRESS {
+                return Err(Error::RateLimited {
+                    message: format!(
+                        "{ip} has {MAX_EVENT_STREAMS_PER_ADDRESS} event streams open, the most \
+                         one address may; close one"
+                    ),
+                    retry_after: std::time::Duration::from_secs(5),
+                });
+            }
+            *held += 1;
+            slot.address = Some((self.by_address.clone(), ip));
+        }
         if taken >= MAX_EVENT_SUBSCRIBERS {
             return Err(Error::Unavailable(
                 "too many event streams are open; try again later",
@@ -109,17 +156,22 @@ impl Events {
         }
         let ring = self.ring();
         let live = self.sender.subscribe();
+        let reset = || {
+            vec![Arc::new(FarmEvent {
+                id: ring.last_id,
+                at_ms: now_ms(),
+                kind: EventKind::Reset,
+            })]
+        };
         let backlog = match last_id {
             None => Vec::new(),
-            Some(id) if id >= ring.last_id => Vec::new(),
+            Some(id) if id == ring.last_id => Vec::new(),
+            // An id this log never gave: whatever the client holds is of another log.
+            Some(id) if id > ring.last_id => reset(),
             Some(id) => {
                 let oldest = ring.events.front().map_or(ring.last_id + 1, |e| e.id);
                 if id + 1 < oldest {
-                    vec![Arc::new(FarmEvent {
-                        id: ring.last_id,
-                        at_ms: now_ms(),
-                        kind: EventKind::Reset,
-                    })]
+                    reset()
                 } else {
                     ring.events.iter().filter(|e| e.id > id).cloned().collect()
                 }
@@ -152,11 +204,17 @@ mod tests {
         }
         // The ring holds 3, 4, 5.
         let ids = |s: Subscription| s.backlog.iter().map(|e| e.id).collect::<Vec<_>>();
-        assert_eq!(ids(events.subscribe(Some(2)).unwrap()), vec![3, 4, 5]);
-        assert_eq!(ids(events.subscribe(Some(4)).unwrap()), vec![5]);
-        assert_eq!(ids(events.subscribe(Some(5)).unwrap()), Vec::<u64>::new());
-        assert_eq!(ids(events.subscribe(None).unwrap()), Vec::<u64>::new());
-        let reset = events.subscribe(Some(1)).unwrap();
+        assert_eq!(ids(events.subscribe(Some(2), None).unwrap()), vec![3, 4, 5]);
+        assert_eq!(ids(events.subscribe(Some(4), None).unwrap()), vec![5]);
+        assert_eq!(
+            ids(events.subscribe(Some(5), None).unwrap()),
+            Vec::<u64>::new()
+        );
+        assert_eq!(
+            ids(events.subscribe(None, None).unwrap()),
+            Vec::<u64>::new()
+        );
+        let reset = events.subscribe(Some(1), None).unwrap();
         assert_eq!(reset.backlog.len(), 1);
         assert_eq!(reset.backlog[0].kind, EventKind::Reset);
         assert_eq!(
@@ -165,26 +223,64 @@ mod tests {
         );
     }
 
+    #[test]
+    fn an_id_from_the_future_gets_a_reset_not_silence() {
+        // A client that followed a coordinator before this one started: its id is past ours.
+        let events = Events::with_capacity(3);
+        let fresh = events.subscribe(Some(41), None).unwrap();
+        assert_eq!(fresh.backlog.len(), 1);
+        assert_eq!(fresh.backlog[0].kind, EventKind::Reset);
+        assert_eq!(fresh.backlog[0].id, 0);
+        events.publish(joined(1));
+        events.publish(joined(2));
+        let later = events.subscribe(Some(3), None).unwrap();
+        assert_eq!(later.backlog.len(), 1);
+        assert_eq!(later.backlog[0].kind, EventKind::Reset);
+        assert_eq!(later.backlog[0].id, 2, "resume from the newest id");
+    }
+
     #[tokio::test]
     async fn live_events_follow_in_order_and_subscribers_are_capped() {
         let events = Events::default();
-        let mut sub = events.subscribe(None).unwrap();
+        let mut sub = events.subscribe(None, None).unwrap();
         events.publish(joined(1));
         events.publish(joined(2));
         assert_eq!(sub.live.recv().await.unwrap().id, 1);
         assert_eq!(sub.live.recv().await.unwrap().id, 2);
         let held: Vec<_> = (1..MAX_EVENT_SUBSCRIBERS)
-            .map(|_| events.subscribe(None).unwrap())
+            .map(|_| events.subscribe(None, None).unwrap())
             .collect();
-        assert!(matches!(events.subscribe(None), Err(Error::Unavailable(_))));
+        assert!(matches!(
+            events.subscribe(None, None),
+            Err(Error::Unavailable(_))
+        ));
         drop(held);
-        assert!(events.subscribe(None).is_ok(), "slots come back");
+        assert!(events.subscribe(None, None).is_ok(), "slots come back");
+    }
+
+    #[test]
+    fn one_address_holds_a_few_streams_and_leaves_the_rest_to_others() {
+        let events = Events::default();
+        let (a, b): (IpAddr, IpAddr) = ([10, 0, 0, 1].into(), [10, 0, 0, 2].into());
+        let mut held: Vec<_> = (0..MAX_EVENT_STREAMS_PER_ADDRESS)
+            .map(|_| events.subscribe(None, Some(a)).unwrap())
+            .collect();
+        assert!(matches!(
+            events.subscribe(None, Some(a)),
+            Err(Error::RateLimited { .. })
+        ));
+        assert!(events.subscribe(None, Some(b)).is_ok(), "another address");
+        held.pop();
+        assert!(
+            events.subscribe(None, Some(a)).is_ok(),
+            "a place comes back"
+        );
     }
 
     #[tokio::test]
     async fn a_subscriber_that_falls_behind_is_dropped_not_buffered() {
         let events = Events::default();
-        let mut sub = events.subscribe(None).unwrap();
+        let mut sub = events.subscribe(None, None).unwrap();
         for n in 0..(EVENT_CHANNEL as u64 + 10) {
             events.publish(joined(n));
         }

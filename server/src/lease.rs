@@ -138,7 +138,8 @@ impl Ledger {
                 stuck.push((
                     job.id,
                     format!(
-                        "tile {index} {:?} failed on {} and no other connected worker may take                          it; last error: {}",
+                        "tile {index} ({}) failed on {} and no other connected worker may \
+                         take it; last error: {}",
                         job.rects[index as usize],
                         self.worker_names(&by),
                         last_error(job, Some(index))
@@ -434,7 +435,7 @@ impl Ledger {
         let expected = job.rects[index as usize];
         if upload.pixels.rect != expected {
             return Err(Error::BadRequest(format!(
-                "pixels.rect: {:?} is not the rectangle of tile {index}, {expected:?}",
+                "pixels.rect: {} is not the rectangle of tile {index}, {expected}",
                 upload.pixels.rect
             )));
         }
@@ -601,14 +602,14 @@ impl Ledger {
         let reason = &failure.reason;
         let job_error = if claimed_by.len() >= DETERMINISTIC_CONFIRMATIONS {
             Some(format!(
-                "tile {index} {rect:?} cannot be rendered: {} workers found so ({}); the \
+                "tile {index} ({rect}) cannot be rendered: {} workers found so ({}); the \
                  last (worker {worker}): {reason}",
                 claimed_by.len(),
                 self.worker_names(&claimed_by.iter().copied().collect::<Vec<_>>()),
             ))
         } else if failed_by.len() >= TILE_FAILURE_LIMIT {
             Some(format!(
-                "tile {index} {rect:?} failed on {} different workers; last reason \
+                "tile {index} ({rect}) failed on {} different workers; last reason \
                  (worker {worker}): {reason}",
                 failed_by.len(),
             ))

@@ -84,11 +84,17 @@ impl AppState {
         let (ledger, assets, tiles) = tokio::task::spawn_blocking(move || {
             std::fs::create_dir_all(&data)
                 .with_context(|| format!("creating the data directory {}", data.display()))?;
-            let db = db::open(&data.join("spindle.db"))
-                .with_context(|| format!("opening {}", data.join("spindle.db").display()))?;
-            let ledger = Ledger::load(db, lease_ttl, grace, tokio::time::Instant::now())?;
+            let database = data.join("spindle.db");
+            db::set_aside_orphaned_log(&database)?;
+            let damaged = |e| db::explain_damage(e, &database);
+            let db = db::open(&database)
+                .with_context(|| format!("opening {}", database.display()))
+                .map_err(damaged)?;
+            let ledger =
+                Ledger::load(db, lease_ttl, grace, tokio::time::Instant::now()).map_err(damaged)?;
             let assets = AssetStore::open(data.join("assets"))?;
-            let tiles = TileStore::open(data.join("jobs"), &data.join("spindle.db"), max_upload)?;
+            let tiles =
+                TileStore::open(data.join("jobs"), &database, max_upload).map_err(damaged)?;
             anyhow::Ok((ledger, assets, tiles))
         })
         .await??;

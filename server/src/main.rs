@@ -5,8 +5,20 @@
 use anyhow::Context;
 use spindle_server::Args;
 
+fn main() -> std::process::ExitCode {
+    // An error that stops the coordinator is told as a sentence (its causes after colons),
+    // never as a debug dump with a backtrace.
+    match serve() {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("spindle-server: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
 #[tokio::main]
-async fn main() -> anyhow::Result<()> {
+async fn serve() -> anyhow::Result<()> {
     let args = Args::from_process();
     spindle_server::logging::init(args.log_format);
     let (listen, dashboard_listen) = (args.listen, args.dashboard_listen);

@@ -267,3 +267,39 @@ async fn one_address_reopening_half_open_connections_leaves_the_probes_answered(
     }
     attackers.abort_all();
 }
+
+/// Sends `GET /v1/events` and reads the answer's head.
+async fn event_stream(addr: SocketAddr) -> (TcpStream, String) {
+    let mut stream = TcpStream::connect(addr).await.unwrap();
+    stream
+        .write_all(b"GET /v1/events HTTP/1.1\r\nhost: x\r\n\r\n")
+        .await
+        .unwrap();
+    let mut head = Vec::new();
+    let read = tokio::time::timeout(GIVE_UP, async {
+        let mut buf = [0u8; 1024];
+        while !head.windows(4).any(|w| w == b"\r\n\r\n") {
+            match stream.read(&mut buf).await {
+                Ok(0) | Err(_) => break,
+                Ok(n) => head.extend_from_slice(&buf[..n]),
+            }
+        }
+    })
+    .await;
+    assert!(read.is_ok(), "no answer within {GIVE_UP:?}");
+    (stream, String::from_utf8_lossy(&head).into_owned())
+}
+
+#[tokio::test]
+async fn one_address_holds_at_most_four_event_streams() {
+    let server = start(64).await;
+    let mut open = Vec::new();
+    for n in 1..=4 {
+        let (stream, head) = event_stream(server.addr).await;
+        assert!(head.starts_with("HTTP/1.1 200"), "stream {n}: {head}");
+        open.push(stream);
+    }
+    let (_, head) = event_stream(server.addr).await;
+    assert!(head.starts_with("HTTP/1.1 429"), "{head}");
+    assert!(head.to_ascii_lowercase().contains("retry-after"), "{head}");
+}

@@ -337,8 +337,15 @@ async fn with_two_workers_a_tile_both_failed_fails_its_job_instead_of_hanging() 
     assert!(
         error.contains("tile 0")
             && error.contains(&format!("alpha ({a}), beta ({b})"))
-            && error.contains("no other connected worker")
+            && error.contains("no other connected worker may take it; last error")
             && error.contains("beta broke"),
+        "{error}"
+    );
+    // A sentence for people: the tile's rectangle in words, no Rust debug text.
+    assert!(
+        error.contains("tile 0 (8 × 8 pixels at x 0, y 0)")
+            && !error.contains("TileRect {")
+            && !error.contains("  "),
         "{error}"
     );
 }
@@ -397,6 +404,13 @@ async fn a_deterministic_failure_confirmed_by_a_second_worker_fails_the_job_and_
     let error = info.error.unwrap();
     assert!(
         error.contains(reason) && error.contains("alpha") && error.contains("beta"),
+        "{error}"
+    );
+    assert!(
+        error.contains(&format!(
+            "tile {} (8 × 8 pixels at x {}, y 0) cannot be rendered",
+            lease.tile_index, lease.rect.x
+        )) && !error.contains("TileRect {"),
         "{error}"
     );
     assert_eq!(info.recent_errors.len(), 2);

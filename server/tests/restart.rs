@@ -210,3 +210,115 @@ async fn an_interrupted_assembly_is_finished_after_a_restart() {
         "the tiles of a done job are still there"
     );
 }
+
+/// Runs the `spindle-server` binary on `data` (on loopback, with tokens and a full backtrace
+/// asked for) until it exits or its stderr shows `until`, for at most 30 s; then stops it.
+/// Returns its exit status (`None`: still running when stopped) and its stderr.
+fn run_binary(data: &std::path::Path, until: &str) -> (Option<std::process::ExitStatus>, String) {
+    use std::io::Read;
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_spindle-server"))
+        .args(["--listen", "127.0.0.1:0", "--data"])
+        .arg(data)
+        .env("SPINDLE_TOKEN", CLIENT)
+        .env("SPINDLE_WORKER_TOKEN", WORKER)
+        .env("RUST_BACKTRACE", "1")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("starting spindle-server");
+    let mut stderr = child.stderr.take().unwrap();
+    let text = std::sync::Arc::new(std::sync::Mutex::new(String::new()));
+    let reader = {
+        let text = text.clone();
+        std::thread::spawn(move || {
+            let mut buf = [0u8; 4096];
+            while let Ok(n) = stderr.read(&mut buf) {
+                if n == 0 {
+                    break;
+                }
+                text.lock()
+                    .unwrap()
+                    .push_str(&String::from_utf8_lossy(&buf[..n]));
+            }
+        })
+    };
+    let started = std::time::Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break Some(status);
+        }
+        if text.lock().unwrap().contains(until) || started.elapsed() > Duration::from_secs(30) {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            break None;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    reader.join().unwrap();
+    let text = text.lock().unwrap().clone();
+    (status, text)
+}
+
+/// A truncated database stops the coordinator at once with a sentence that names the file
+/// and says what to do: no panic, no backtrace.
+#[test]
+fn a_damaged_database_stops_the_coordinator_saying_what_to_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let database = dir.path().join("spindle.db");
+    // A database with every table, its log copied in and removed when the connection closes.
+    drop(spindle_server::db::open(&database).unwrap());
+    let length = std::fs::metadata(&database).unwrap().len();
+    let file = std::fs::OpenOptions::new()
+        .write(true)
+        .open(&database)
+        .unwrap();
+    file.set_len(length / 2).unwrap();
+    drop(file);
+
+    let (status, stderr) = run_binary(dir.path(), "coordinator state loaded");
+    println!(
+        "spindle-server on a database cut from {length} to {} bytes: {stderr}",
+        length / 2
+    );
+    let status = status.expect("the coordinator stops by itself");
+    assert!(!status.success(), "{stderr}");
+    assert!(
+        stderr.contains(&format!("the database {} is damaged: ", database.display()))
+            && stderr.contains("restore it from a backup or move it away to start empty"),
+        "{stderr}"
+    );
+    assert!(
+        !stderr.contains("panicked") && !stderr.contains("backtrace"),
+        "{stderr}"
+    );
+}
+
+/// A database file deleted while its write-ahead log stayed: the coordinator starts empty, with
+/// a warning, and the log is kept aside rather than replayed into the new database.
+#[test]
+fn a_deleted_database_whose_log_is_left_starts_empty_with_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let database = dir.path().join("spindle.db");
+    let db = spindle_server::db::open(&database).unwrap();
+    db.execute_batch("CREATE TABLE scratch (a); INSERT INTO scratch VALUES (1);")
+        .unwrap();
+    let log = dir.path().join("spindle.db-wal");
+    assert!(log.is_file(), "the connection keeps its log while open");
+    std::fs::remove_file(&database).unwrap();
+
+    let (status, stderr) = run_binary(dir.path(), "coordinator state loaded");
+    drop(db);
+    println!("spindle-server on a log without its database: {stderr}");
+    assert!(status.is_none(), "the coordinator stopped: {stderr}");
+    let warning = stderr
+        .lines()
+        .find(|l| l.contains("WARN"))
+        .unwrap_or_else(|| panic!("no warning: {stderr}"));
+    assert!(
+        warning.contains("the database file is missing but its write-ahead log was there")
+            && warning.contains("spindle.db-wal.orphaned"),
+        "{warning}"
+    );
+    assert!(stderr.contains("jobs=0"), "{stderr}");
+    assert!(dir.path().join("spindle.db-wal.orphaned").is_file());
+}

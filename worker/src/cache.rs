@@ -4,11 +4,14 @@
 //! Loading a job means fetching its spec, downloading each asset by its content hash,
 //! checking that the bytes really hash to that name (a corrupted or substituted mesh must not
 //! render silently), and building the renderer's scene on the worker's render pool (BVH
-//! construction is parallel CPU work and stays off the async runtime). Only a few jobs are
-//! kept: a farm works through jobs in order, so the last couple are all that will be asked for.
+//! construction is parallel CPU work and stays off the async runtime). The build runs as
+//! [`detached`](crate::detached) work: past the worker's build time limit, or once the lease is
+//! lost, the worker walks away from it. Only a few jobs are kept: a farm works through jobs in
+//! order, so the last couple are all that will be asked for.
 
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
+use std::time::Duration;
 
 use spindle_common::protocol::asset_hash;
 use spindle_common::provenance::Provenance;
@@ -16,6 +19,7 @@ use tokio_util::sync::CancellationToken;
 
 use crate::backoff::{Backoff, RetryEnd, retry};
 use crate::client::{Client, ClientError, ErrorKind};
+use crate::detached::{self, Ended, Slot};
 use spindle_render::scene::{Assets, Scene};
 
 /// A job's built scene and its provenance (sent with every tile of the job).
@@ -40,6 +44,10 @@ pub enum LoadError {
     /// The scene does not build: no worker can render it, the job should fail at once.
     #[error("{0}")]
     Unbuildable(String),
+    /// The build passed the worker's time limit and was given up: the tile should be reported
+    /// as failed with this reason (another worker, or a later try, may be given more time).
+    #[error("{0}")]
+    OverLimit(String),
     /// The job is gone (deleted or cancelled) or the lease was lost: drop the tile quietly.
     #[error("the job is no longer available")]
     Gone,
@@ -69,17 +77,25 @@ pub struct SceneCache {
     client: Client,
     pool: Arc<rayon::ThreadPool>,
     backoff: Backoff,
+    /// The longest a scene build may take.
+    build_limit: Duration,
     entries: VecDeque<(u64, Arc<BuiltJob>)>,
     /// Number of scenes built (not served from the cache), for the log and tests.
     builds: u64,
 }
 
 impl SceneCache {
-    pub fn new(client: Client, pool: Arc<rayon::ThreadPool>, backoff: Backoff) -> SceneCache {
+    pub fn new(
+        client: Client,
+        pool: Arc<rayon::ThreadPool>,
+        backoff: Backoff,
+        build_limit: Duration,
+    ) -> SceneCache {
         SceneCache {
             client,
             pool,
             backoff,
+            build_limit,
             entries: VecDeque::new(),
             builds: 0,
         }
@@ -90,11 +106,13 @@ impl SceneCache {
         self.builds
     }
 
-    /// The scene of `job_id`, built on first use. Transient failures (coordinator away) are
-    /// retried with backoff until `stop` is cancelled.
+    /// The scene of `job_id`, built on first use, on a thread holding `slot`. Transient
+    /// failures (coordinator away) are retried with backoff until `stop` is cancelled; `stop`
+    /// also ends the wait for a build.
     pub async fn get(
         &mut self,
         job_id: u64,
+        slot: &Slot,
         stop: &CancellationToken,
     ) -> Result<Arc<BuiltJob>, LoadError> {
         if let Some(i) = self.entries.iter().position(|(id, _)| *id == job_id) {
@@ -104,7 +122,7 @@ impl SceneCache {
             self.entries.push_back(entry);
             return Ok(scene);
         }
-        let scene = Arc::new(self.load(job_id, stop).await?);
+        let scene = Arc::new(self.load(job_id, slot, stop).await?);
         self.builds += 1;
         if self.entries.len() == CAPACITY {
             self.entries.pop_front();
@@ -113,7 +131,12 @@ impl SceneCache {
         Ok(scene)
     }
 
-    async fn load(&self, job_id: u64, stop: &CancellationToken) -> Result<BuiltJob, LoadError> {
+    async fn load(
+        &self,
+        job_id: u64,
+        slot: &Slot,
+        stop: &CancellationToken,
+    ) -> Result<BuiltJob, LoadError> {
         let spec = retry(self.backoff, job_id, stop, "fetching the job spec", || {
             self.client.job_spec(job_id)
         })
@@ -125,18 +148,26 @@ impl SceneCache {
         let assets = self.download_assets(job_id, &spec.assets, stop).await?;
         let desc = spec.scene;
         let pool = self.pool.clone();
-        let built = tokio::task::spawn_blocking(move || {
+        let build = move |_: &detached::Interrupt| {
             pool.install(|| {
                 let scene = Scene::build(&desc, &assets)?;
                 let provenance = spindle_render::provenance(&scene);
                 Ok(BuiltJob { scene, provenance })
             })
-        })
-        .await
-        .map_err(|e| LoadError::Broken(format!("building the scene panicked: {e}")))?;
-        built.map_err(|e: spindle_render::SceneError| {
-            LoadError::Unbuildable(format!("the scene does not build: {e}"))
-        })
+        };
+        let limit = self.build_limit;
+        match detached::run(slot, "scene-build", limit, stop, build).await {
+            Ended::Done(built) => built.map_err(|e: spindle_render::SceneError| {
+                LoadError::Unbuildable(format!("the scene does not build: {e}"))
+            }),
+            Ended::Broke(how) => Err(LoadError::Broken(format!("building the scene {how}"))),
+            Ended::Stopped => Err(LoadError::Interrupted),
+            Ended::OverLimit => Err(LoadError::OverLimit(format!(
+                "building the scene took longer than this worker's limit of {} s \
+                 (--build-time-limit-s) and was given up",
+                limit.as_secs_f64()
+            ))),
+        }
     }
 
     /// Downloads each distinct asset once and checks its hash; returns them keyed by path.
@@ -258,7 +289,16 @@ mod tests {
             initial: std::time::Duration::from_millis(1),
             max: std::time::Duration::from_millis(5),
         };
-        SceneCache::new(Client::new(base, None).unwrap(), pool, backoff)
+        SceneCache::new(
+            Client::new(base, None).unwrap(),
+            pool,
+            backoff,
+            Duration::from_secs(60),
+        )
+    }
+
+    async fn slot() -> Slot {
+        detached::Gate::new().slot().await
     }
 
     #[tokio::test]
@@ -272,7 +312,10 @@ mod tests {
             }
         })
         .await;
-        let Err(err) = cache(&base).get(1, &CancellationToken::new()).await else {
+        let Err(err) = cache(&base)
+            .get(1, &slot().await, &CancellationToken::new())
+            .await
+        else {
             panic!("a corrupted asset must not build");
         };
         match err {
@@ -298,8 +341,12 @@ mod tests {
         .await;
         let mut cache = cache(&base);
         let stop = CancellationToken::new();
-        let a = cache.get(1, &stop).await.expect("the scene builds");
-        let b = cache.get(1, &stop).await.expect("the scene is cached");
+        let slot = slot().await;
+        let a = cache.get(1, &slot, &stop).await.expect("the scene builds");
+        let b = cache
+            .get(1, &slot, &stop)
+            .await
+            .expect("the scene is cached");
         assert!(Arc::ptr_eq(&a, &b));
         assert_eq!(cache.builds(), 1);
         assert_eq!(a.scene.triangle_count(), 1);
@@ -309,7 +356,10 @@ mod tests {
     #[tokio::test]
     async fn a_missing_job_is_gone_not_broken() {
         let base = fake_coordinator(|_| (404, br#"{"error":"no job 1"}"#.to_vec())).await;
-        let err = cache(&base).get(1, &CancellationToken::new()).await.err();
+        let err = cache(&base)
+            .get(1, &slot().await, &CancellationToken::new())
+            .await
+            .err();
         assert!(matches!(err, Some(LoadError::Gone)), "{err:?}");
     }
 }

@@ -41,7 +41,20 @@ pub struct Config {
     /// After a shutdown request, how long the worker keeps trying to upload the tile it
     /// finished before giving up (its lease then lapses and the tile is rendered elsewhere).
     pub shutdown_grace: Duration,
+    /// The longest a job's scene may take to build (`--build-time-limit-s`); past it the build
+    /// is given up and the tile reported as failed.
+    pub build_time_limit: Duration,
+    /// The longest one tile's render may take (`--tile-time-limit-s`); past it the render is
+    /// given up and the tile reported as failed.
+    pub tile_time_limit: Duration,
 }
+
+/// Default of [`Config::build_time_limit`], seconds.
+pub const DEFAULT_BUILD_TIME_LIMIT_S: f64 = 600.0;
+/// Default of [`Config::tile_time_limit`], seconds.
+pub const DEFAULT_TILE_TIME_LIMIT_S: f64 = 3600.0;
+/// The longest time limit a worker accepts, seconds (a year).
+pub const MAX_TIME_LIMIT_S: f64 = 365.0 * 24.0 * 3600.0;
 
 impl Config {
     /// Validates the raw settings. `threads: None` means every core of the machine.
@@ -93,6 +106,8 @@ impl Config {
             lease_wait: Duration::from_secs(10),
             backoff: Backoff::default(),
             shutdown_grace: Duration::from_secs(30),
+            build_time_limit: Duration::from_secs_f64(DEFAULT_BUILD_TIME_LIMIT_S),
+            tile_time_limit: Duration::from_secs_f64(DEFAULT_TILE_TIME_LIMIT_S),
         })
     }
 }
@@ -120,6 +135,29 @@ impl Config {
         self.labels = map;
         Ok(self)
     }
+}
+
+impl Config {
+    /// Sets the time limits of a scene build and of a tile's render, in seconds, each more
+    /// than 0 and at most [`MAX_TIME_LIMIT_S`].
+    pub fn with_time_limits(mut self, build_s: f64, tile_s: f64) -> Result<Config, ConfigError> {
+        self.build_time_limit = time_limit("build-time-limit-s", build_s)?;
+        self.tile_time_limit = time_limit("tile-time-limit-s", tile_s)?;
+        Ok(self)
+    }
+}
+
+fn time_limit(field: &'static str, seconds: f64) -> Result<Duration, ConfigError> {
+    if !(seconds > 0.0 && seconds <= MAX_TIME_LIMIT_S) {
+        return Err(ConfigError {
+            field,
+            problem: format!(
+                "{seconds} s is not a time limit: give seconds, more than 0 and at most \
+                 {MAX_TIME_LIMIT_S} (a year)"
+            ),
+        });
+    }
+    Ok(Duration::from_secs_f64(seconds))
 }
 
 /// Accepts `http://host[:port][/]` and `https://host[:port][/]`.
@@ -208,6 +246,20 @@ mod tests {
             .clone()
             .with_labels((0..17).map(|i| pair(&format!("k{i}"))).collect());
         assert_eq!(err.unwrap_err().field, "label");
+        for (build, tile, field) in [
+            (0.0, 1.0, "build-time-limit-s"),
+            (f64::NAN, 1.0, "build-time-limit-s"),
+            (1.0, -3.0, "tile-time-limit-s"),
+            (1.0, 1e12, "tile-time-limit-s"),
+        ] {
+            let err = c.clone().with_time_limits(build, tile).unwrap_err();
+            assert_eq!(err.field, field, "{err}");
+        }
+        let limited = c.clone().with_time_limits(0.001, 2.5).unwrap();
+        assert_eq!(limited.build_time_limit, Duration::from_millis(1));
+        assert_eq!(limited.tile_time_limit, Duration::from_millis(2500));
+        assert_eq!(c.build_time_limit, Duration::from_secs(600));
+        assert_eq!(c.tile_time_limit, Duration::from_secs(3600));
         let ok = c.with_labels(vec![pair("pool")]).unwrap();
         assert_eq!(ok.labels.get("pool").map(String::as_str), Some("x"));
     }

@@ -8,9 +8,11 @@
 #![forbid(unsafe_code)]
 
 pub mod backoff;
+pub mod bands;
 pub mod cache;
 pub mod client;
 pub mod config;
+pub mod detached;
 pub mod lease_ref;
 pub mod tls;
 pub mod upload;

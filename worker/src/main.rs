@@ -32,6 +32,14 @@ struct Args {
     /// CA); without it https trusts the system's roots.
     #[arg(long, env = "SPINDLE_CA_CERT")]
     ca_cert: Option<PathBuf>,
+    /// The longest a job's scene may take to build, seconds: past it the build is given up,
+    /// the tile reported as failed and the next lease taken.
+    #[arg(long, env = "SPINDLE_BUILD_TIME_LIMIT_S", default_value_t = spindle_worker::config::DEFAULT_BUILD_TIME_LIMIT_S)]
+    build_time_limit_s: f64,
+    /// The longest one tile's render may take, seconds: past it the render is given up, the
+    /// tile reported as failed and the next lease taken.
+    #[arg(long, env = "SPINDLE_TILE_TIME_LIMIT_S", default_value_t = spindle_worker::config::DEFAULT_TILE_TIME_LIMIT_S)]
+    tile_time_limit_s: f64,
     /// Read the worker token from this file instead of SPINDLE_WORKER_TOKEN.
     #[arg(long, env = "SPINDLE_WORKER_TOKEN_FILE")]
     token_file: Option<PathBuf>,
@@ -65,8 +73,9 @@ fn real_main(args: Args) -> anyhow::Result<()> {
         ),
         None => std::env::var("SPINDLE_WORKER_TOKEN").ok(),
     };
-    let mut config =
-        Config::new(&args.coordinator, token, args.name, args.threads)?.with_labels(args.labels)?;
+    let mut config = Config::new(&args.coordinator, token, args.name, args.threads)?
+        .with_labels(args.labels)?
+        .with_time_limits(args.build_time_limit_s, args.tile_time_limit_s)?;
     // Read the CA file now, so a bad one stops the worker at once with its name.
     drop(spindle_worker::tls::client_builder(
         args.ca_cert.as_deref(),

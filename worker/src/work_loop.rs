@@ -5,8 +5,13 @@
 //! - the coordinator unreachable or answering 5xx: wait with backoff and retry, forever (it may
 //!   be restarting);
 //! - the coordinator no longer knows this worker (404 on the lease route): register again;
-//! - a heartbeat answered 409/404: the lease is lost; whatever was being done for it is
-//!   abandoned (a render in progress finishes but is not uploaded);
+//! - a heartbeat answered 409/404 (the lease is lost, or its job cancelled or deleted):
+//!   whatever was being done for it is abandoned at once — the scene build or the tile render
+//!   is walked away from ([`crate::detached`]; a render stops at its next band of rows) — and
+//!   the worker asks for its next lease;
+//! - a scene build or a tile render past the worker's time limit (`build_time_limit`,
+//!   `tile_time_limit`): given up the same way, and the tile reported as failed, naming the
+//!   limit, as a failure another worker might avoid;
 //! - a job that cannot be rendered (bad asset, renderer panic, a tile the coordinator refuses as
 //!   invalid): the tile is reported through the fail route with the reason, so the coordinator
 //!   can apply its failure rules; a failure no other worker could avoid (the scene does not
@@ -20,8 +25,10 @@
 //!
 //! Shutdown: once `shutdown` fires, no new lease is asked for. The tile in hand is finished and
 //! delivered, for at most `shutdown_grace` more; then the worker gives up on it (the lease
-//! lapses and another worker renders it) and returns. Rendering runs on the worker's own rayon
-//! pool through `spawn_blocking`, never on the async runtime, so heartbeats keep flowing.
+//! lapses and another worker renders it) and returns. Builds and renders run on the worker's
+//! own rayon pool from threads of their own ([`crate::detached`]), never on the async runtime,
+//! so heartbeats keep flowing; the worker asks for a lease only with a slot of its
+//! [`Gate`] in hand, so work it walked away from never piles up.
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -33,11 +40,12 @@ use tokio_util::sync::CancellationToken;
 
 use crate::Config;
 use crate::backoff::{Attempts, RetryEnd, retry};
+use crate::bands;
 use crate::cache::{LoadError, SceneCache};
 use crate::client::{Client, ClientError, ErrorKind};
+use crate::detached::{self, Ended, Gate, Slot};
 use crate::lease_ref::LeaseRef;
 use crate::upload::{Delivery, RenderedTile, deliver};
-use spindle_render::{render_tile, render_tile_pass};
 
 /// Shortest and longest pause between heartbeats.
 const HEARTBEAT_MIN: Duration = Duration::from_millis(50);
@@ -68,6 +76,8 @@ pub struct Worker {
     client: Client,
     pool: Arc<rayon::ThreadPool>,
     cache: SceneCache,
+    /// Bounds the threads building or rendering for this worker, abandoned ones included.
+    gate: Gate,
     shutdown: CancellationToken,
     /// Fires when the coordinator says the worker is draining: no new lease after the tile in
     /// hand.
@@ -107,7 +117,12 @@ impl Worker {
             config.token.clone(),
             config.ca_cert.as_deref(),
         )?;
-        let cache = SceneCache::new(client.clone(), pool.clone(), config.backoff);
+        let cache = SceneCache::new(
+            client.clone(),
+            pool.clone(),
+            config.backoff,
+            config.build_time_limit,
+        );
         let hard_stop = CancellationToken::new();
         {
             let (shutdown, hard_stop, grace) =
@@ -123,6 +138,7 @@ impl Worker {
             client,
             pool,
             cache,
+            gate: Gate::new(),
             shutdown,
             drain: CancellationToken::new(),
             hard_stop,
@@ -146,6 +162,11 @@ impl Worker {
             let Some(worker_id) = self.registered().await? else {
                 break;
             };
+            // A lease is asked for only when a thread may work on it.
+            let slot = tokio::select! {
+                _ = self.shutdown.cancelled() => break,
+                slot = self.gate.slot() => slot,
+            };
             let wait = self.config.lease_wait;
             let result = tokio::select! {
                 _ = self.shutdown.cancelled() => break,
@@ -154,7 +175,7 @@ impl Worker {
             match result {
                 Ok(Some(lease)) => {
                     self.lease_attempts.reset();
-                    self.work(worker_id, lease).await?;
+                    self.work(worker_id, lease, &slot).await?;
                 }
                 Ok(None) => self.lease_attempts.reset(),
                 Err(e) => self.lease_failed(e).await?,
@@ -233,7 +254,7 @@ impl Worker {
     }
 
     /// Renders and delivers one leased tile, with heartbeats running throughout.
-    async fn work(&mut self, worker_id: u64, lease: Lease) -> anyhow::Result<()> {
+    async fn work(&mut self, worker_id: u64, lease: Lease, slot: &Slot) -> anyhow::Result<()> {
         let held = LeaseRef::from(&lease);
         let LeaseRef { job, tile, epoch } = held;
         tracing::debug!(job, tile, epoch, "leased");
@@ -247,7 +268,7 @@ impl Worker {
             stop.clone(),
             self.drain.clone(),
         ));
-        let outcome = match self.render(job, &lease, &stop).await {
+        let outcome = match self.render(job, &lease, slot, &stop).await {
             Ok(Rendered::Pixels(tile)) => match self.deliver(worker_id, held, *tile, &stop).await {
                 Some(reason) => {
                     self.report_failure(worker_id, held, reason, false, &stop)
@@ -340,19 +361,20 @@ impl Worker {
         }
     }
 
-    /// Loads the job's scene (cached) and renders the tile on the render pool: in one pass, or
-    /// the lease's progressive pass, continuing from the previous pass's result, fetched from
-    /// the coordinator.
+    /// Loads the job's scene (cached) and renders the tile on the render pool, from a thread
+    /// holding `slot`, within the tile time limit: in one pass, or the lease's progressive
+    /// pass, continuing from the previous pass's result, fetched from the coordinator.
     async fn render(
         &mut self,
         job_id: u64,
         lease: &Lease,
+        slot: &Slot,
         stop: &CancellationToken,
     ) -> anyhow::Result<Rendered> {
         let rect = lease.rect;
-        let scene = match self.cache.get(job_id, stop).await {
+        let scene = match self.cache.get(job_id, slot, stop).await {
             Ok(scene) => scene,
-            Err(LoadError::Broken(reason)) => {
+            Err(LoadError::Broken(reason) | LoadError::OverLimit(reason)) => {
                 return Ok(Rendered::Failed {
                     reason,
                     deterministic: false,
@@ -375,7 +397,7 @@ impl Worker {
         {
             return Ok(Rendered::Failed {
                 reason: format!(
-                    "lease rect {rect:?} is not inside the {}x{} film",
+                    "the leased tile of {rect} is not inside the {} × {} film",
                     film.width, film.height
                 ),
                 deterministic: false,
@@ -391,28 +413,40 @@ impl Worker {
         let pool = self.pool.clone();
         let built = scene.clone();
         let pass = lease.pass;
-        let job = tokio::task::spawn_blocking(move || {
+        let render = move |interrupt: &detached::Interrupt| {
             let started = std::time::Instant::now();
-            let pixels = pool.install(|| match pass {
-                None => Ok(render_tile(&built.scene, rect)),
-                Some(pass) => render_tile_pass(&built.scene, rect, pass, previous.as_ref()),
-            });
+            let pixels = pool
+                .install(|| bands::render(&built.scene, rect, pass, previous.as_ref(), interrupt));
             (pixels, started.elapsed().as_secs_f64())
-        });
-        let (pixels, seconds) = match job.await {
-            Ok((Ok(pixels), seconds)) => (pixels, seconds),
-            Ok((Err(e), _)) => {
+        };
+        let limit = self.config.tile_time_limit;
+        let (pixels, seconds) = match detached::run(slot, "tile-render", limit, stop, render).await
+        {
+            Ended::Done((Some(Ok(pixels)), seconds)) => (pixels, seconds),
+            Ended::Done((Some(Err(e)), _)) => {
                 return Ok(Rendered::Failed {
                     reason: format!("pass {}: {e}", pass.unwrap_or(1)),
                     deterministic: false,
                 });
             }
-            Err(e) => {
+            Ended::Broke(how) => {
                 return Ok(Rendered::Failed {
-                    reason: format!("the renderer panicked: {}", panic_message(e)),
+                    reason: format!("the renderer {how}"),
                     deterministic: false,
                 });
             }
+            Ended::OverLimit => {
+                return Ok(Rendered::Failed {
+                    reason: format!(
+                        "rendering the tile took longer than this worker's limit of {} s \
+                         (--tile-time-limit-s) and was given up",
+                        limit.as_secs_f64()
+                    ),
+                    deterministic: false,
+                });
+            }
+            // Interrupted: the lease was lost (or the deadline passed) while rendering.
+            Ended::Done((None, _)) | Ended::Stopped => return Ok(Rendered::Abandoned),
         };
         if let Some(problem) = first_non_finite(&pixels) {
             // A pixel depends only on the scene: every worker would render the same overflow.
@@ -541,17 +575,5 @@ fn fatal(e: ClientError, doing: &str) -> anyhow::Error {
             "{doing}: the coordinator refused the worker token ({e}); check SPINDLE_WORKER_TOKEN"
         ),
         _ => anyhow!("{doing}: {e}"),
-    }
-}
-
-/// The message of a panic caught by a `JoinError`.
-fn panic_message(e: tokio::task::JoinError) -> String {
-    match e.try_into_panic() {
-        Ok(payload) => payload
-            .downcast_ref::<&str>()
-            .map(|s| s.to_string())
-            .or_else(|| payload.downcast_ref::<String>().cloned())
-            .unwrap_or_else(|| "(no message)".to_string()),
-        Err(e) => e.to_string(),
     }
 }

@@ -44,6 +44,15 @@ fn bad_settings_stop_the_worker_at_once_naming_the_setting() {
             vec![
                 "--coordinator",
                 "http://127.0.0.1:7878",
+                "--tile-time-limit-s",
+                "0",
+            ],
+            "tile-time-limit-s: 0 s is not a time limit",
+        ),
+        (
+            vec![
+                "--coordinator",
+                "http://127.0.0.1:7878",
                 "--token-file",
                 missing_token,
             ],

@@ -1,10 +1,10 @@
 //! `GET /v1/events`: the live event stream (Server-Sent Events) of [`crate::events`].
 
 use std::convert::Infallible;
+use std::net::SocketAddr;
 use std::sync::Arc;
 
-use axum::extract::State;
-use axum::http::HeaderMap;
+use axum::extract::{ConnectInfo, Request, State};
 use axum::response::sse::{Event, KeepAlive, Sse};
 use futures_util::stream::{self, Stream, StreamExt};
 use spindle_common::protocol::{ApiError, FarmEvent, SseFarmEvent};
@@ -22,16 +22,22 @@ pub(super) fn routes() -> Declared {
 /// Follows the farm: job state changes, finished tiles, workers joining, draining and lost, as
 /// Server-Sent Events (`id:` the event id, `event:` its type, `data:` a `FarmEvent`). With
 /// `Last-Event-ID`, the events after it come first (or a `reset` when they are no longer
-/// kept). A client too slow to keep up is disconnected; it reconnects with its last id.
+/// kept, or when the id is past the newest: a coordinator counts from 1 again at every start).
+/// A client too slow to keep up is disconnected; it reconnects with its last id.
 #[utoipa::path(get, path = "/v1/events",
     params(("Last-Event-ID" = Option<i64>, Header, nullable = false, minimum = 0, description = "the last event id received")),
     responses((status = 200, content_type = "text/event-stream", body = SseFarmEvent),
-              (status = 400, body = ApiError), (status = 503, body = ApiError)))]
+              (status = 400, body = ApiError), (status = 429, body = ApiError),
+              (status = 503, body = ApiError)))]
 async fn events(
     State(state): State<AppState>,
-    headers: HeaderMap,
+    request: Request,
 ) -> Result<Sse<impl Stream<Item = Result<Event, Infallible>>>, Error> {
-    let last_id = match headers.get("last-event-id") {
+    let peer = request
+        .extensions()
+        .get::<ConnectInfo<SocketAddr>>()
+        .map(|c| c.0.ip());
+    let last_id = match request.headers().get("last-event-id") {
         None => None,
         Some(v) => Some(
             v.to_str()
@@ -43,7 +49,7 @@ async fn events(
                 })?,
         ),
     };
-    let sub = state.events().subscribe(last_id)?;
+    let sub = state.events().subscribe(last_id, peer)?;
     let backlog = stream::iter(sub.backlog);
     // Ends at the first error: the subscriber lagged (dropped) or the log is gone.
     let live = stream::unfold((sub.live, sub.slot), |(mut rx, slot)| async move {
