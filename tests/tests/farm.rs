@@ -198,11 +198,12 @@ async fn sigterm_mid_job_exits_cleanly_and_the_job_completes_elsewhere() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn heartbeats_keep_a_lease_alive_through_a_tile_longer_than_its_ttl() {
     bounded(async {
-        // One 32×32 tile that takes several times the 0.3 s lease to render on one thread (2048
-        // spp: about 3.5 s on an idle core; 512 spp took only 0.89 s on an idle CI machine). A
-        // second worker waits for work: if the first one's lease lapsed during the render, the
-        // tile would be leased to the second and the first one's upload refused.
-        let (scene, assets) = test_scene(32, 32, 2048);
+        // One 32×32 tile that takes several times the 0.3 s lease to render on one thread, and
+        // well under the lease's greatest age, 20 TTLs = 6 s, on a loaded machine (1024 spp:
+        // about 1.8 s on an idle core; 512 spp took 0.89 s on an idle CI machine). A second
+        // worker waits for work: if the first one's lease lapsed during the render, the tile
+        // would be leased to the second and the first one's upload refused.
+        let (scene, assets) = test_scene(32, 32, 1024);
         let reference = reference_image(&scene, &assets)?;
         let mut farm = Farm::start(0.3).await?;
         farm.add_worker("renderer", 1)?;
