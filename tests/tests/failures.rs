@@ -69,9 +69,11 @@ async fn a_scene_no_worker_can_build_fails_at_once_with_the_reason() {
             error.contains("the scene does not build") && error.contains("2 workers found so"),
             "{error}"
         );
-        // At once: each worker fails one tile, and the second report confirms the first.
+        // At once: a failure is confirmed per tile, by a second worker, and a worker is never
+        // given a tile it failed, so each of the 4 tiles fails at most once before some tile's
+        // second report confirms it: 2 to 5 reports, whoever leases first.
         assert!(
-            (2..=3).contains(&end.recent_errors.len()),
+            (2..=5).contains(&end.recent_errors.len()),
             "{:?}",
             end.recent_errors
         );
