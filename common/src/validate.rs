@@ -35,6 +35,10 @@ pub const MAX_FACE_CORNERS: usize = 64;
 /// The most squares along a side of a wavy box's top (`segments`): 1024² squares are already
 /// 2.1 million triangles.
 pub const MAX_WAVE_SEGMENTS: u32 = 1024;
+/// The most triangles of a scene's shapes together: the bound of the renderer, of the CLI
+/// and, by default, of the coordinator: 2²⁵ ≈ 33.5 million, so one icosphere of
+/// [`MAX_SUBDIVISIONS`] (21 million triangles) fits.
+pub const MAX_TRIANGLES: u64 = 1 << 25;
 /// The smallest length accepted (radii), and the smallest absolute scale factor.
 pub const MIN_LENGTH: f64 = 1e-6;
 /// The largest absolute scale factor of a transform.
@@ -669,32 +673,134 @@ fn cross(a: Vec3, b: Vec3) -> Vec3 {
     ]
 }
 
-/// Triangles an OBJ file describes: a face line `f v1 v2 … vn` is a fan of n − 2 triangles.
-/// A face of more than [`MAX_FACE_CORNERS`] corners is refused, naming its line.
+/// Triangles an OBJ file describes — a face line `f v1 v2 … vn` is a fan of n − 2 triangles —
+/// after checking, in one linear pass, what would make the renderer refuse the file, so that
+/// the coordinator refuses it at submission rather than at the first lease: a face of more than
+/// [`MAX_FACE_CORNERS`] corners, a vertex whose coordinates are not three numbers within
+/// ±[`MAX_COORDINATE`], a face corner naming a vertex the file does not have, or no face at
+/// all. Each error names its line.
 pub fn count_obj_triangles(bytes: &[u8]) -> Result<u64, String> {
     let mut triangles = 0u64;
+    let mut vertices = 0u64;
+    // The largest positive vertex index a face names, and its line: checked at the end, as a
+    // face may name a vertex given later in the file.
+    let mut furthest: Option<(u64, usize)> = None;
     for (n, line) in bytes.split(|&b| b == b'\n').enumerate() {
-        let line = line.trim_ascii_start();
-        let Some(rest) = line.strip_prefix(b"f") else {
-            continue;
-        };
-        if !rest.first().is_some_and(|b| b.is_ascii_whitespace()) {
-            continue; // `fo …` or a bare `f` is not a face.
-        }
-        let corners = rest
+        let line = line.trim_ascii();
+        let mut tokens = line
             .split(|b| b.is_ascii_whitespace())
-            .filter(|t| !t.is_empty())
-            .count();
-        if corners > MAX_FACE_CORNERS {
-            return Err(format!(
-                "line {}: a face of {corners} corners; at most {MAX_FACE_CORNERS} (split it into \
-                 smaller faces)",
-                n + 1
-            ));
+            .filter(|t| !t.is_empty());
+        match tokens.next() {
+            Some(b"v") => {
+                let mut coordinates = 0;
+                for token in tokens.take(3) {
+                    let x = std::str::from_utf8(token)
+                        .ok()
+                        .and_then(|t| t.parse::<f64>().ok())
+                        .filter(|x| x.is_finite() && x.abs() <= MAX_COORDINATE);
+                    if x.is_none() {
+                        return Err(format!(
+                            "line {}: a vertex coordinate {:?}: must be a number within \
+                             ±{MAX_COORDINATE:e} (the scene's extent)",
+                            n + 1,
+                            String::from_utf8_lossy(token)
+                        ));
+                    }
+                    coordinates += 1;
+                }
+                if coordinates < 3 {
+                    return Err(format!("line {}: a vertex needs three coordinates", n + 1));
+                }
+                vertices += 1;
+            }
+            Some(b"f") => {
+                let mut corners = 0usize;
+                for token in tokens {
+                    corners += 1;
+                    if corners > MAX_FACE_CORNERS {
+                        let all = line
+                            .split(|b| b.is_ascii_whitespace())
+                            .filter(|t| !t.is_empty())
+                            .count()
+                            - 1;
+                        return Err(format!(
+                            "line {}: a face of {all} corners; at most {MAX_FACE_CORNERS} (split \
+                             it into smaller faces)",
+                            n + 1
+                        ));
+                    }
+                    let index = token.split(|&b| b == b'/').next().unwrap_or_default();
+                    let index = std::str::from_utf8(index)
+                        .ok()
+                        .and_then(|t| t.parse::<i64>().ok());
+                    match index {
+                        Some(i) if i > 0 => {
+                            let i = i as u64;
+                            if furthest.is_none_or(|(f, _)| i > f) {
+                                furthest = Some((i, n + 1));
+                            }
+                        }
+                        // Relative to the vertices so far.
+                        Some(i) if i < 0 && i.unsigned_abs() <= vertices => {}
+                        _ => {
+                            return Err(format!(
+                                "line {}: a face corner {:?}: must name one of the vertices \
+                                 before it (1 … {vertices}, or −1 … −{vertices} counting back)",
+                                n + 1,
+                                String::from_utf8_lossy(token)
+                            ));
+                        }
+                    }
+                }
+                triangles += corners.saturating_sub(2) as u64;
+            }
+            _ => {}
         }
-        triangles += corners.saturating_sub(2) as u64;
+    }
+    if let Some((index, line)) = furthest.filter(|&(i, _)| i > vertices) {
+        return Err(format!(
+            "line {line}: a face names vertex {index}, but the file has {vertices} vertices"
+        ));
+    }
+    if triangles == 0 {
+        return Err("the file has no faces (no `f` line of three or more corners)".into());
     }
     Ok(triangles)
+}
+
+/// Triangles of an icosphere subdivided `subdivisions` times: 20·4^s, or `None` past u64.
+pub fn icosphere_triangles(subdivisions: u32) -> Option<u64> {
+    4u64.checked_pow(subdivisions)?.checked_mul(20)
+}
+
+/// The triangles of every shape of `scene` together, known without building any geometry;
+/// `obj_triangles(path)` gives an OBJ shape's count (or the problem with its file). Refused,
+/// naming the object where the total passes it, past `max` triangles (the renderer's and the
+/// CLI's bound is [`MAX_TRIANGLES`]; a coordinator may set a lower one).
+pub fn scene_triangles(
+    scene: &SceneDescription,
+    mut obj_triangles: impl FnMut(&str) -> Result<u64, String>,
+    max: u64,
+) -> Result<u64, SceneError> {
+    let mut total: u64 = 0;
+    for (i, object) in scene.objects.iter().enumerate() {
+        let count = match &object.shape {
+            Shape::Obj { path, .. } => obj_triangles(path)
+                .map_err(|e| SceneError::new(format!("objects[{i}].shape.path"), e))?,
+            Shape::Icosphere { subdivisions, .. } | Shape::BumpySphere { subdivisions, .. } => {
+                icosphere_triangles(*subdivisions).unwrap_or(u64::MAX)
+            }
+            Shape::Box { waves, .. } => box_triangles(waves.as_ref()),
+        };
+        total = total.saturating_add(count);
+        if total > max {
+            return Err(SceneError::new(
+                format!("objects[{i}].shape"),
+                format!("the scene has more than {max} triangles (the limit)"),
+            ));
+        }
+    }
+    Ok(total)
 }
 
 #[cfg(test)]

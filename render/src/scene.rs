@@ -12,7 +12,10 @@ use std::collections::HashMap;
 use glam::DVec3;
 use rayon::prelude::*;
 use spindle_common::scene as desc;
-use spindle_common::validate::{MAX_COORDINATE, MAX_WAVE_SEGMENTS, SceneError};
+use spindle_common::validate::{
+    MAX_COORDINATE, MAX_TRIANGLES, MAX_WAVE_SEGMENTS, SceneError, count_obj_triangles,
+    scene_triangles,
+};
 
 use crate::Rgb;
 use crate::bvh::Bvh;
@@ -151,6 +154,15 @@ impl Scene {
                 format!("must be <= {MAX_DEPTH_LIMIT}"),
             ));
         }
+        // Counted before any geometry is built, by the bound the coordinator checks too.
+        scene_triangles(
+            scene,
+            |path| match assets.get(path) {
+                Some(bytes) => count_obj_triangles(bytes).map_err(|e| format!("{path}: {e}")),
+                None => Err(format!("no file was supplied for {path:?}")),
+            },
+            MAX_TRIANGLES,
+        )?;
         let objects = scene
             .objects
             .par_iter()

@@ -2,14 +2,13 @@
 //!
 //! A farm is shared, so a single request must not be able to exhaust its memory, disk or time.
 //! Each check names the offending field and the limit, and becomes a 4xx before anything is
-//! stored. Triangle counts are known without building geometry: an icosphere of `s`
-//! subdivisions has 20·4^s triangles, a box's follow from its segments
-//! ([`box_triangles`]); an OBJ's are counted from its `f` lines.
+//! stored. Triangle counts are known without building geometry
+//! (`spindle_common::validate::scene_triangles`, the renderer's and the CLI's count too).
 
-use spindle_common::scene::{SceneDescription, Shape};
+use spindle_common::scene::SceneDescription;
 use spindle_common::tile::TileRect;
-use spindle_common::validate::box_triangles;
-pub use spindle_common::validate::count_obj_triangles;
+use spindle_common::validate::{MAX_TRIANGLES, scene_triangles};
+pub use spindle_common::validate::{count_obj_triangles, icosphere_triangles};
 
 /// The coordinator's limits.
 #[derive(Debug, Clone, PartialEq)]
@@ -44,7 +43,7 @@ impl Default for Limits {
             max_height: 16_384,
             max_pixels: 64 << 20,
             max_spp: spindle_common::validate::MAX_SPP,
-            max_triangles: 20_000_000,
+            max_triangles: MAX_TRIANGLES,
             min_tile_size: 4,
             max_tile_size: 256,
             max_tiles_per_job: 1 << 16,
@@ -106,40 +105,17 @@ impl Limits {
         Ok(())
     }
 
-    /// Checks the scene's triangle count; `obj_triangles(path)` gives the count of an OBJ shape's
-    /// asset (or an error naming the problem).
+    /// Checks the scene's triangle count against this coordinator's limit; `obj_triangles(path)`
+    /// gives the count of an OBJ shape's asset (or an error naming the problem).
     pub fn check_triangles(
         &self,
         scene: &SceneDescription,
-        mut obj_triangles: impl FnMut(&str) -> Result<u64, String>,
+        obj_triangles: impl FnMut(&str) -> Result<u64, String>,
     ) -> Result<(), String> {
-        let mut total: u64 = 0;
-        for (i, object) in scene.objects.iter().enumerate() {
-            let field = format!("scene.objects[{i}].shape");
-            let count = match &object.shape {
-                Shape::Obj { path, .. } => {
-                    obj_triangles(path).map_err(|e| format!("{field}: {e}"))?
-                }
-                Shape::Icosphere { subdivisions, .. } | Shape::BumpySphere { subdivisions, .. } => {
-                    icosphere_triangles(*subdivisions).unwrap_or(u64::MAX)
-                }
-                Shape::Box { waves, .. } => box_triangles(waves.as_ref()),
-            };
-            total = total.saturating_add(count);
-            if total > self.max_triangles {
-                return Err(format!(
-                    "{field}: the scene has more than {} triangles (the limit)",
-                    self.max_triangles
-                ));
-            }
-        }
-        Ok(())
+        scene_triangles(scene, obj_triangles, self.max_triangles)
+            .map(|_| ())
+            .map_err(|e| format!("scene.{e}"))
     }
-}
-
-/// Triangles of an icosphere subdivided `subdivisions` times: 20·4^s, or `None` past u64.
-pub fn icosphere_triangles(subdivisions: u32) -> Option<u64> {
-    4u64.checked_pow(subdivisions)?.checked_mul(20)
 }
 
 #[cfg(test)]

@@ -448,6 +448,32 @@ async fn assets_are_stored_by_verified_hash_and_obj_triangles_are_counted() {
         .await;
     assert_eq!(status, StatusCode::BAD_REQUEST, "{v}");
     assert!(v["error"].as_str().unwrap().contains("triangles"), "{v}");
+    // A mesh no worker could build (a face naming a vertex the file lacks) is refused at
+    // submission, naming the asset and the line, not at the first lease.
+    let broken = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 9\n".to_vec();
+    let broken_hash = asset_hash(&broken);
+    let (status, _) = c
+        .send(
+            Method::PUT,
+            &format!("/v1/assets/{broken_hash}"),
+            Some(CLIENT),
+            broken,
+        )
+        .await;
+    assert_eq!(status, StatusCode::OK);
+    let (status, v) = c
+        .client(
+            Method::POST,
+            "/v1/jobs",
+            Some(json!({"scene": s, "assets": {"meshes/quad.obj": broken_hash}})),
+        )
+        .await;
+    assert_eq!(status, StatusCode::BAD_REQUEST, "{v}");
+    assert_eq!(
+        v["error"],
+        "assets.meshes/quad.obj: line 5: a face names vertex 9, but the file has 4 vertices",
+        "{v}"
+    );
 }
 
 /// The routes `docs/api.md` lists, as (path, method, token).

@@ -48,16 +48,14 @@ async fn pixels_beyond_f32_fail_the_job_with_the_reason_instead_of_looping() {
     .await;
 }
 
-/// An OBJ face that names a vertex the file does not have: the scene validates on the
-/// coordinator (it does not read meshes) but no worker can build it.
+/// A floor that its transform carries past the scene's extent (x up to 4·10⁶): the coordinator
+/// checks each value and each mesh file, not the transformed vertices, so it accepts the
+/// scene, but no worker can build it.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_scene_no_worker_can_build_fails_at_once_with_the_reason() {
     bounded(async {
-        let (scene, mut assets) = test_scene(16, 16, 1);
-        assets.insert(
-            "meshes/floor.obj".into(),
-            b"v -4 0 -4\nv 4 0 -4\nv 4 0 4\nf 1 2 9\n".to_vec(),
-        );
+        let (mut scene, assets) = test_scene(16, 16, 1);
+        scene["objects"][0]["transform"] = serde_json::json!({"scale": [1e6, 1, 1]});
         let farm = Farm::of_two_workers(5.0).await?;
         let job = farm.submit(&scene, &assets, 8).await?;
         let end = farm

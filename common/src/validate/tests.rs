@@ -727,7 +727,51 @@ fn obj_faces_are_counted_as_fans() {
     let obj = b"# a quad and a triangle\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n\
                 f 1 2 3 4\r\n  f 1/1/1 2/2/2 3/3/3\nfo 1 2 3\nvn 0 0 1\nf\n";
     assert_eq!(count_obj_triangles(obj), Ok(2 + 1));
-    assert_eq!(count_obj_triangles(b""), Ok(0));
+}
+
+/// What would fail the renderer's build is refused by the same linear scan the coordinator
+/// runs at submission, naming the line.
+#[test]
+fn an_obj_the_renderer_would_refuse_is_refused_by_the_count() {
+    let refused = |text: &str| count_obj_triangles(text.as_bytes()).unwrap_err();
+    let e = refused("v 0 0 0\nv 2e6 0 0\nv 0 1 0\nf 1 2 3\n");
+    assert!(e.starts_with("line 2: a vertex coordinate \"2e6\""), "{e}");
+    assert!(refused("v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").starts_with("line 1: "));
+    assert!(refused("v 0 0 0\nv 1 0\n").contains("line 2: a vertex needs three coordinates"));
+    assert_eq!(
+        refused("v -4 0 -4\nv 4 0 -4\nv 4 0 4\nf 1 2 9\n"),
+        "line 4: a face names vertex 9, but the file has 3 vertices"
+    );
+    assert!(
+        refused("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n").starts_with("line 4: a face corner \"0\"")
+    );
+    assert!(refused("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -4 -2 -1\n").contains("\"-4\""));
+    assert!(refused("").contains("no faces"));
+    assert!(refused("v 0 0 0\nv 1 0 0\nf 1 2\n").contains("no faces"));
+    // Relative indices, texture and normal indices, extra vertex values and faces given before
+    // their vertices are all fine.
+    let fine = "f 1 2 3\nv 0 0 0 1\nv 1 0 0 0.5 0.5 0.5\nv 0 1 0\nvn 0 0 1\nf -3/1/1 -2//1 -1\n";
+    assert_eq!(count_obj_triangles(fine.as_bytes()), Ok(2));
+}
+
+#[test]
+fn the_scene_triangles_are_counted_and_bounded_naming_the_object() {
+    let scene = SceneDescription::from_json(&full_scene().to_string()).unwrap();
+    let floor = |path: &str| {
+        assert_eq!(path, "meshes/floor.obj");
+        Ok(2)
+    };
+    // The floor, an icosphere of level 3 and a bumpy sphere of level 4.
+    let total = 2 + 20 * 4u64.pow(3) + 20 * 4u64.pow(4);
+    assert_eq!(scene_triangles(&scene, floor, MAX_TRIANGLES), Ok(total));
+    let e = scene_triangles(&scene, floor, total - 1).unwrap_err();
+    assert_eq!(e.path, "objects[2].shape");
+    assert!(e.problem.contains("more than"), "{e}");
+    let e = scene_triangles(&scene, |_| Err("line 3: broken".into()), MAX_TRIANGLES).unwrap_err();
+    assert_eq!(e.to_string(), "objects[0].shape.path: line 3: broken");
+    // One icosphere of the largest level fits the bound; two do not.
+    assert!(icosphere_triangles(MAX_SUBDIVISIONS).unwrap() <= MAX_TRIANGLES);
+    assert!(2 * icosphere_triangles(MAX_SUBDIVISIONS).unwrap() > MAX_TRIANGLES);
 }
 
 /// A fan face of N corners made the scene build quadratic (9.6 s at N = 10,000): such a
