@@ -137,12 +137,16 @@ pub struct JobOptions {
     pub crop: Option<spindle_common::tile::TileRect>,
 }
 
+/// A change made to a scene before it is sent (the local farm's `--spp`, `--seed`, `--set`),
+/// which may refuse it.
+pub type SceneEdit<'a> = dyn Fn(&mut SceneDescription) -> Result<()> + 'a;
+
 /// Reads the scene file and its meshes, uploads the meshes the coordinator lacks, and submits
 /// the job. `edit` may change the scene before it is sent (the local farm's `--spp`/`--seed`).
 pub async fn submit_scene_file(
     api: &Api,
     scene_path: &Path,
-    edit: Option<&dyn Fn(&mut SceneDescription) -> Result<()>>,
+    edit: Option<&SceneEdit<'_>>,
     check: Check,
     options: &JobOptions,
 ) -> Result<JobInfo> {
