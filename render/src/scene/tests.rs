@@ -149,17 +149,27 @@ fn extreme_magnitudes_are_errors_not_panics() {
     d.camera.position = [1.7e308, 0.0, 5.0];
     let e = Scene::build(&d, &Assets::new()).unwrap_err().to_string();
     assert!(e.starts_with("camera.position[0]: "), "{e}");
-    // An OBJ's own coordinates are only seen here: out of the scene's extent after the
-    // transform is an error naming the transform.
+    // An OBJ's coordinates past the extent are refused by the file scan, naming the line…
     let huge = Assets::from([(
         "huge.obj".to_string(),
         b"v 0 0 0\nv 1e200 0 0\nv 0 1 0\nf 1 2 3\n".to_vec(),
     )]);
-    let e = error(
-        &format!(r#"{{ "shape": {{ "type": "obj", "path": "huge.obj" }}, {GLASS} }}"#),
-        "",
-        &huge,
+    let obj = format!(r#"{{ "shape": {{ "type": "obj", "path": "huge.obj" }}, {GLASS} }}"#);
+    let e = error(&obj, "", &huge);
+    assert!(
+        e.starts_with("objects[0].shape.path: huge.obj: line 2: "),
+        "{e}"
     );
+    assert!(e.contains("±1e6"), "{e}");
+    // …and carried past it by the transform, an error naming the transform.
+    let far = Assets::from([(
+        "huge.obj".to_string(),
+        b"v 0 0 0\nv 1e5 0 0\nv 0 1 0\nf 1 2 3\n".to_vec(),
+    )]);
+    let scaled = format!(
+        r#"{{ "shape": {{ "type": "obj", "path": "huge.obj" }}, "transform": {{ "scale": [100, 1, 1] }}, {GLASS} }}"#
+    );
+    let e = error(&scaled, "", &far);
     assert!(e.starts_with("objects[0].transform: "), "{e}");
     assert!(e.contains("±1e6"), "{e}");
 }
