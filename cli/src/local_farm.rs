@@ -126,6 +126,7 @@ mod tests {
             poll: hour,
             quiet: hour,
             unreachable_for: hour,
+            show: crate::meter::Show::Nothing,
         };
         let result = tokio::time::timeout(
             Duration::from_secs(60),

@@ -7,6 +7,7 @@ mod control;
 mod fetch;
 mod jobs;
 mod local_farm;
+mod meter;
 mod progress;
 mod render;
 mod secret;

@@ -1,12 +1,12 @@
 //! Following a job until it ends, with a progress bar of its tiles.
 //!
 //! Used by `spindle submit --wait`, `spindle status --follow` and the local farm of `spindle
-//! render`. The job is followed on the coordinator's event stream rather than polled. The bar
-//! goes to stderr and only when stderr is a terminal; stdout stays clean for scripts. A
+//! render`. The job is followed on the coordinator's event stream rather than polled. Progress
+//! goes to stderr as [`crate::meter`] says (a bar on a terminal, lines in a log); stdout stays
+//! clean for scripts. A
 //! coordinator that is briefly unreachable (restarting) does not end the wait: it continues
 //! until the coordinator answers again or `unreachable_for` has passed without an answer.
 
-use std::io::IsTerminal;
 use std::time::{Duration, Instant};
 
 use anyhow::{Result, bail};
@@ -15,6 +15,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use spindle_common::protocol::{EventKind, JobInfo, JobState};
 
 use crate::api::Api;
+use crate::meter::{LINE_EVERY, Lines, Show};
 
 /// How to wait.
 #[derive(Debug, Clone, Copy)]
@@ -26,6 +27,8 @@ pub struct Wait {
     pub quiet: Duration,
     /// Give up after the coordinator has not answered for this long.
     pub unreachable_for: Duration,
+    /// Where the job's progress goes.
+    pub show: Show,
 }
 
 impl Default for Wait {
@@ -34,6 +37,7 @@ impl Default for Wait {
             poll: Duration::from_millis(250),
             quiet: Duration::from_secs(30),
             unreachable_for: Duration::from_secs(120),
+            show: Show::on_stderr(false),
         }
     }
 }
@@ -51,7 +55,7 @@ pub async fn wait_for(api: &Api, id: u64, wait: Wait) -> Result<JobInfo> {
         api,
         id,
         wait,
-        bar: job_bar(id),
+        display: JobDisplay::new(id, wait.show),
         last_answer: Instant::now(),
         last_read: Instant::now(),
     };
@@ -78,8 +82,14 @@ pub async fn wait_for(api: &Api, id: u64, wait: Wait) -> Result<JobInfo> {
             continue;
         };
         loop {
-            let event = match tokio::time::timeout(wait.quiet, events.next()).await {
-                Err(_quiet) => {
+            // Woken at least every LINE_EVERY, so a log gets its line while no tile lands.
+            let wake = wait.quiet.min(LINE_EVERY);
+            let event = match tokio::time::timeout(wake, events.next()).await {
+                Err(_no_event) => {
+                    if job.last_read.elapsed() < wait.quiet {
+                        job.display.print_line_if_due(Instant::now());
+                        continue;
+                    }
                     if let Some(info) = job.read().await? {
                         return Ok(info);
                     }
@@ -96,7 +106,7 @@ pub async fn wait_for(api: &Api, id: u64, wait: Wait) -> Result<JobInfo> {
             let read = match event.kind {
                 EventKind::JobState { job: j, .. } => j == id,
                 EventKind::TileDone { job: j, .. } if j == id => {
-                    job.bar.inc(1);
+                    job.display.tile_done(Instant::now());
                     job.last_read.elapsed() >= Duration::from_secs(1)
                 }
                 EventKind::Reset => true,
@@ -111,10 +121,29 @@ pub async fn wait_for(api: &Api, id: u64, wait: Wait) -> Result<JobInfo> {
     }
 }
 
-/// A progress bar of a job's tiles on stderr, drawn only when stderr is a terminal.
-fn job_bar(id: u64) -> ProgressBar {
-    let bar = ProgressBar::new(0);
-    if std::io::stderr().is_terminal() {
+/// How a followed job's tiles are shown: a bar, drawn from the first answer about the job (its
+/// tile count known: never a full bar of "0/0 tiles"), or lines for a log, or nothing.
+struct JobDisplay {
+    /// Counts the job's tiles whether or not it is drawn.
+    bar: ProgressBar,
+    /// Where the bar is to be drawn once the job's tile count is known; `None` once it is drawn
+    /// or when it is not to be drawn.
+    target: Option<ProgressDrawTarget>,
+    lines: Option<Lines>,
+    /// The coordinator's estimate of the time to go, from the last answer.
+    eta: Option<Duration>,
+}
+
+impl JobDisplay {
+    fn new(id: u64, show: Show) -> Self {
+        let target = (show == Show::Bar).then(ProgressDrawTarget::stderr);
+        let lines = (show == Show::Lines)
+            .then(|| Lines::new(format!("job {id}"), "tiles", LINE_EVERY, Instant::now()));
+        Self::drawn_on(id, target, lines)
+    }
+
+    fn drawn_on(id: u64, target: Option<ProgressDrawTarget>, lines: Option<Lines>) -> Self {
+        let bar = ProgressBar::hidden();
         bar.set_style(
             ProgressStyle::with_template(
                 "{prefix} {elapsed_precise} [{bar:40}] {pos}/{len} tiles {msg}",
@@ -122,11 +151,43 @@ fn job_bar(id: u64) -> ProgressBar {
             .expect("a valid template")
             .progress_chars("=> "),
         );
-    } else {
-        bar.set_draw_target(ProgressDrawTarget::hidden());
+        bar.set_prefix(format!("job {id}"));
+        JobDisplay {
+            bar,
+            target,
+            lines,
+            eta: None,
+        }
     }
-    bar.set_prefix(format!("job {id}"));
-    bar
+
+    /// The job as the coordinator last described it.
+    fn update(&mut self, done: u32, total: u32, message: String, eta: Option<Duration>) {
+        if total > 0
+            && let Some(target) = self.target.take()
+        {
+            self.bar.set_draw_target(target);
+        }
+        self.eta = eta;
+        self.bar.set_length(u64::from(total));
+        self.bar.set_position(u64::from(done));
+        self.bar.set_message(message);
+        self.print_line_if_due(Instant::now());
+    }
+
+    fn tile_done(&mut self, now: Instant) {
+        self.bar.inc(1);
+        self.print_line_if_due(now);
+    }
+
+    /// For a log: the progress line, when one is due at `now`.
+    fn print_line_if_due(&mut self, now: Instant) {
+        if let Some(lines) = &mut self.lines {
+            let total = self.bar.length().unwrap_or(0);
+            if let Some(line) = lines.due(now, self.bar.position(), total, self.eta) {
+                eprintln!("{line}");
+            }
+        }
+    }
 }
 
 /// The job being waited for, and when the coordinator last answered about it.
@@ -134,7 +195,7 @@ struct Followed<'a> {
     api: &'a Api,
     id: u64,
     wait: Wait,
-    bar: ProgressBar,
+    display: JobDisplay,
     last_answer: Instant,
     last_read: Instant,
 }
@@ -147,35 +208,40 @@ impl Followed<'_> {
         match self.api.job(self.id).await {
             Ok(info) => {
                 self.last_answer = Instant::now();
-                self.bar.set_length(u64::from(info.tiles_total));
-                self.bar.set_position(u64::from(info.tiles_done));
-                self.bar.set_message(match info.eta_s {
+                let message = match info.eta_s {
                     Some(eta) if !info.state.is_finished() => {
                         format!("{} eta {eta:.0} s", info.state.as_str())
                     }
                     _ => info.state.as_str().to_string(),
-                });
+                };
+                let eta = info
+                    .eta_s
+                    .filter(|s| s.is_finite() && *s >= 0.0)
+                    .map(Duration::from_secs_f64);
+                self.display
+                    .update(info.tiles_done, info.tiles_total, message, eta);
                 if info.state.is_finished() {
-                    self.bar.finish_and_clear();
+                    self.display.bar.finish_and_clear();
                     return Ok(Some(info));
                 }
                 Ok(None)
             }
             // A 4xx (job deleted, bad token) will not get better by waiting.
             Err(e) if crate::api::status_of(&e).is_some_and(|s| s.is_client_error()) => {
-                self.bar.abandon();
+                self.display.bar.abandon();
                 Err(e)
             }
             Err(e) => {
                 if self.last_answer.elapsed() > self.wait.unreachable_for {
-                    self.bar.abandon();
+                    self.display.bar.abandon();
                     return Err(e.context(format!(
                         "no answer about job {} for {} s",
                         self.id,
                         self.wait.unreachable_for.as_secs()
                     )));
                 }
-                self.bar
+                self.display
+                    .bar
                     .set_message(format!("waiting for the coordinator: {e:#}"));
                 Ok(None)
             }
@@ -196,5 +262,75 @@ pub fn require_done(info: &JobInfo) -> Result<()> {
                 .map(|e| format!(": {e}"))
                 .unwrap_or_default()
         ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::{Arc, Mutex};
+
+    use indicatif::TermLike;
+
+    use super::*;
+
+    /// A terminal that keeps what is written to it.
+    #[derive(Debug, Clone, Default)]
+    struct Recorded(Arc<Mutex<String>>);
+
+    impl Recorded {
+        fn text(&self) -> String {
+            self.0.lock().unwrap().clone()
+        }
+    }
+
+    impl TermLike for Recorded {
+        fn width(&self) -> u16 {
+            100
+        }
+        fn move_cursor_up(&self, _: usize) -> std::io::Result<()> {
+            Ok(())
+        }
+        fn move_cursor_down(&self, _: usize) -> std::io::Result<()> {
+            Ok(())
+        }
+        fn move_cursor_right(&self, _: usize) -> std::io::Result<()> {
+            Ok(())
+        }
+        fn move_cursor_left(&self, _: usize) -> std::io::Result<()> {
+            Ok(())
+        }
+        fn write_line(&self, s: &str) -> std::io::Result<()> {
+            self.0.lock().unwrap().push_str(&format!("{s}\n"));
+            Ok(())
+        }
+        fn write_str(&self, s: &str) -> std::io::Result<()> {
+            self.0.lock().unwrap().push_str(s);
+            Ok(())
+        }
+        fn clear_line(&self) -> std::io::Result<()> {
+            Ok(())
+        }
+        fn flush(&self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    /// Before the first answer about the job the bar draws nothing (it used to draw a full bar
+    /// of "0/0 tiles"); from it on, the job's real count.
+    #[test]
+    fn the_bar_is_drawn_only_once_the_tile_count_is_known() {
+        let term = Recorded::default();
+        let target = ProgressDrawTarget::term_like(Box::new(term.clone()));
+        let mut display = JobDisplay::drawn_on(3, Some(target), None);
+        assert_eq!(term.text(), "", "drawn before the job was read");
+        display.update(0, 0, "queued".into(), None);
+        assert_eq!(term.text(), "", "drawn with no tiles known");
+        display.update(0, 12, "running".into(), None);
+        let text = term.text();
+        assert!(
+            text.contains("job 3") && text.contains("0/12 tiles"),
+            "{text:?}"
+        );
+        assert!(!text.contains("0/0"), "{text:?}");
     }
 }

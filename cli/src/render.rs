@@ -9,12 +9,10 @@
 //! attributes, for the whole film or for a `--crop` window (the EXR's data window, inside the
 //! film's display window).
 
-use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{Context, Result, anyhow, bail};
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use spindle_common::image::Image;
 use spindle_common::protocol::{DEFAULT_TILE_SIZE, check_crop};
 use spindle_common::provenance::Provenance;
@@ -26,6 +24,8 @@ use spindle_common::tile::TileRect;
 use spindle_render::{Scene, provenance, render_pixel};
 
 use spindle_common::scene_files::{load_scene, read_meshes};
+
+use crate::meter::{Meter, Show};
 
 /// `spindle render` options.
 #[derive(Debug, clap::Args)]
@@ -344,16 +344,6 @@ fn in_process(args: &RenderArgs) -> Result<()> {
         .iter()
         .map(|t| t.height as u64)
         .sum();
-    let progress = ProgressBar::new(rows);
-    if std::io::stderr().is_terminal() {
-        progress.set_style(
-            ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {percent}% eta {eta}")
-                .expect("a valid template")
-                .progress_chars("=> "),
-        );
-    } else {
-        progress.set_draw_target(ProgressDrawTarget::hidden());
-    }
     let render_started = Instant::now();
     let budget = files
         .desc
@@ -362,17 +352,17 @@ fn in_process(args: &RenderArgs) -> Result<()> {
         .filter(|_| args.pixel.is_none());
     let (mut image, stats, passes) = match budget {
         None => {
+            let progress = Meter::new(Show::on_stderr(false), rows, "render", "rows");
             let (image, stats) =
                 spindle_render::render_frame(&scene, region, &|rows| progress.inc(rows))?;
+            progress.finish();
             (image, stats, None)
         }
         Some(budget) => {
-            progress.set_draw_target(ProgressDrawTarget::hidden());
             let (image, stats, report) = render_in_passes(&scene, region, budget, render_started)?;
             (image, stats, Some(report))
         }
     };
-    progress.finish_and_clear();
     let rendered = render_started.elapsed();
     if let Some(report) = passes {
         // The header says what the image is: the render of `spp` = the samples reached.
