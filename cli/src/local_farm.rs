@@ -1,7 +1,7 @@
 //! `spindle render --workers N` (N ≥ 1): an embedded local farm. The coordinator runs in this
 //! process on 127.0.0.1 with a temporary data directory and random tokens; N workers run in
 //! this process too, as tasks of `spindle_worker::run`, each with its own rayon pool of
-//! cores/N threads. The scene goes through exactly the path a remote farm uses (assets by
+//! `--threads` threads (default cores/N). The scene goes through exactly the path a remote farm uses (assets by
 //! hash, job submission, leases, tile uploads, assembly), so what works here works on many
 //! machines.
 //!
@@ -26,6 +26,17 @@ pub struct FarmResult {
     pub exr: Vec<u8>,
     /// Tiles each worker delivered, in worker order.
     pub tiles_per_worker: Vec<u64>,
+    /// Render threads of each worker.
+    pub threads_per_worker: usize,
+}
+
+/// The farm to start.
+#[derive(Debug, Clone, Copy)]
+pub struct LocalFarm {
+    /// Workers (at least 1).
+    pub workers: usize,
+    /// Render threads of each worker (`None`: the cores shared among the workers).
+    pub threads: Option<usize>,
 }
 
 /// The default number of workers: one per two cores, at least two.
@@ -34,18 +45,18 @@ pub fn default_workers() -> usize {
     (cores / 2).max(2)
 }
 
-/// Starts the coordinator and `workers` workers, submits the job through `submit`, waits with
+/// Starts the coordinator and the farm's workers, submits the job through `submit`, waits with
 /// a progress bar, downloads the final EXR, and stops everything.
-pub async fn render<F, Fut>(workers: usize, submit: F) -> Result<FarmResult>
+pub async fn render<F, Fut>(farm: LocalFarm, submit: F) -> Result<FarmResult>
 where
     F: FnOnce(Api) -> Fut,
     Fut: Future<Output = Result<JobInfo>>,
 {
-    render_waiting(workers, Wait::default(), submit).await
+    render_waiting(farm, Wait::default(), submit).await
 }
 
 /// [`render`], waiting for the job as `wait` says.
-async fn render_waiting<F, Fut>(workers: usize, wait: Wait, submit: F) -> Result<FarmResult>
+async fn render_waiting<F, Fut>(farm: LocalFarm, wait: Wait, submit: F) -> Result<FarmResult>
 where
     F: FnOnce(Api) -> Fut,
     Fut: Future<Output = Result<JobInfo>>,
@@ -72,8 +83,11 @@ where
         shutdown.clone().cancelled_owned(),
     ));
 
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let threads = (cores / workers).max(1);
+    let workers = farm.workers;
+    let threads = farm.threads.unwrap_or_else(|| {
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        (cores / workers).max(1)
+    });
     let mut tasks = Vec::with_capacity(workers);
     for i in 0..workers {
         let config = worker::Config::new(
@@ -108,6 +122,7 @@ where
         job: info,
         exr,
         tiles_per_worker,
+        threads_per_worker: threads,
     })
 }
 
@@ -128,9 +143,13 @@ mod tests {
             unreachable_for: hour,
             show: crate::meter::Show::Nothing,
         };
+        let farm = LocalFarm {
+            workers: 1,
+            threads: None,
+        };
         let result = tokio::time::timeout(
             Duration::from_secs(60),
-            render_waiting(1, wait, |api| async move {
+            render_waiting(farm, wait, |api| async move {
                 crate::submit::submit_scene_file(
                     &api,
                     scene,

@@ -40,6 +40,12 @@ pub struct RenderArgs {
     /// process without the farm.
     #[arg(long)]
     pub workers: Option<usize>,
+    /// Render threads, at least 1: with `--workers 0` the render's own thread pool, on the
+    /// local farm the threads of each worker. Default: every core (with `--workers 0`,
+    /// `RAYON_NUM_THREADS` when set; on the local farm shared among the workers). The pixels
+    /// do not depend on it.
+    #[arg(long, value_name = "N", value_parser = parse_threads)]
+    pub threads: Option<usize>,
     /// Set a scene field without editing the file: `--set objects[0].material.eta=1.33`
     /// (the path as validation messages write it; the value as JSON, or else a string).
     /// Repeatable; checked as the scene file is.
@@ -142,6 +148,35 @@ fn parse_pixel(text: &str) -> Result<(u32, u32), String> {
     Ok((x, y))
 }
 
+/// Parses `--threads N`, N ≥ 1 (clap names the flag in the error).
+fn parse_threads(text: &str) -> Result<usize, String> {
+    let n: usize = text.trim().parse().map_err(|e| format!("{text:?}: {e}"))?;
+    if n == 0 {
+        return Err("must be at least 1".into());
+    }
+    Ok(n)
+}
+
+/// Runs `work` on a rayon pool of its own of `threads` threads, or on the global pool (every
+/// core, or `RAYON_NUM_THREADS`) for `None`. A pool of its own rather than the global one's
+/// size: nothing else in the process is affected.
+fn on_threads<T: Send>(threads: Option<usize>, work: impl FnOnce() -> T + Send) -> Result<T> {
+    let Some(n) = threads else {
+        return Ok(work());
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .thread_name(|i| format!("render-{i}"))
+        .build()
+        .with_context(|| format!("--threads {n}: cannot start the render threads"))?;
+    Ok(pool.install(work))
+}
+
+/// `N thread(s)`.
+fn threads_text(n: usize) -> String {
+    crate::status::count(n as u64, "thread")
+}
+
 pub async fn run(args: &RenderArgs) -> Result<()> {
     if let Some(output) = &args.output {
         check_output(output)?;
@@ -150,7 +185,7 @@ pub async fn run(args: &RenderArgs) -> Result<()> {
         .workers
         .unwrap_or_else(crate::local_farm::default_workers);
     if workers == 0 {
-        return tokio::task::block_in_place(|| in_process(args));
+        return tokio::task::block_in_place(|| on_threads(args.threads, || in_process(args)))?;
     }
     if args.pixel.is_some() {
         bail!("--pixel renders in this process: add --workers 0");
@@ -219,14 +254,18 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
         check_crop(crop, desc.film.width, desc.film.height).map_err(|e| anyhow!("--{e}"))?;
     }
     // The workers build the scene again; here it is built once to say the single-scattering plan.
-    let scene = Scene::build(&files.desc, &files.assets)
+    let scene = on_threads(args.threads, || Scene::build(&files.desc, &files.assets))?
         .with_context(|| format!("invalid scene {}", args.scene.display()))?;
     refuse_unlit_media(&scene, &args.scene, args.allow_blocked)?;
     let provenance = provenance(&scene);
     drop(scene);
     print_plan(&provenance.plan);
     drop(files);
-    let result = crate::local_farm::render(workers, |api| async move {
+    let farm = crate::local_farm::LocalFarm {
+        workers,
+        threads: args.threads,
+    };
+    let result = crate::local_farm::render(farm, |api| async move {
         let edit = |s: &mut SceneDescription| args.edit(s);
         crate::submit::submit_scene_file(
             &api,
@@ -256,13 +295,14 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
     a.insert("spindle.workers".into(), workers.to_string());
     let preview = write_outputs(&image, args)?;
     println!(
-        "rendered {} ({}x{}{}, {} spp) on a local farm of {workers} workers in {:.2} s \
+        "rendered {} ({}x{}{}, {} spp) on a local farm of {workers} workers × {} in {:.2} s \
          ({} of {} px: {} per worker)",
         args.output()?.display(),
         desc.film.width,
         desc.film.height,
         describe_crop(args.crop),
         desc.film.spp,
+        threads_text(result.threads_per_worker),
         started.elapsed().as_secs_f64(),
         crate::status::count(result.job.tiles_total, "tile"),
         args.tile_size,
@@ -279,7 +319,7 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
     Ok(())
 }
 
-/// `--workers 0`: in this process, with rayon over all cores.
+/// `--workers 0`: in this process, with rayon over the current pool (`--threads`).
 fn in_process(args: &RenderArgs) -> Result<()> {
     let started = Instant::now();
     let mut files = load_scene(&args.scene)?;
@@ -387,7 +427,7 @@ fn in_process(args: &RenderArgs) -> Result<()> {
 
     println!(
         "rendered {} ({}x{}{}, {} spp, {} triangles in {} objects, {} lights, {} warnings) in {:.2} s \
-         (scene build {:.2} s)",
+         on {} (scene build {:.2} s)",
         args.output()?.display(),
         full.width,
         full.height,
@@ -398,6 +438,7 @@ fn in_process(args: &RenderArgs) -> Result<()> {
         summary.lights,
         summary.warnings.len(),
         rendered.as_secs_f64(),
+        threads_text(rayon::current_num_threads()),
         built.as_secs_f64(),
     );
     println!("preview {}", preview.display());

@@ -272,3 +272,64 @@ fn set_overrides_a_scene_field_and_is_checked_like_the_file() {
         );
     }
 }
+
+/// The four layers of an EXR, to compare two renders pixel for pixel.
+fn layers(path: &Path) -> [Vec<f32>; 4] {
+    let image = read_exr(path).unwrap();
+    [
+        image.total,
+        image.surface,
+        image.single_scatter,
+        image.stderr,
+    ]
+}
+
+/// `--threads N` sizes the render's own pool (the report names it) and changes no pixel: one
+/// and two threads, in this process and on the local farm, give the same image, bit for bit.
+/// `--threads 0` is refused naming the flag.
+#[test]
+fn threads_size_the_render_and_change_no_pixel() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |out: &str, args: &[&str]| {
+        let done = render_in(dir.path(), &[&["-o", out][..], args].concat());
+        let stdout = String::from_utf8_lossy(&done.stdout).into_owned();
+        assert!(
+            done.status.success(),
+            "{args:?}: {stdout}\n{}",
+            String::from_utf8_lossy(&done.stderr)
+        );
+        stdout
+    };
+    let one = run("one.exr", &["--workers", "0", "--threads", "1"]);
+    assert!(one.contains(" on 1 thread "), "{one}");
+    let two = run("two.exr", &["--workers", "0", "--threads", "2"]);
+    assert!(two.contains(" on 2 threads "), "{two}");
+    let farm = run("farm.exr", &["--workers", "2", "--threads", "1"]);
+    assert!(
+        farm.contains("local farm of 2 workers × 1 thread "),
+        "{farm}"
+    );
+    let reference = layers(&dir.path().join("one.exr"));
+    assert!(reference[0].iter().any(|&v| v > 0.0));
+    assert_eq!(layers(&dir.path().join("two.exr")), reference);
+    assert_eq!(layers(&dir.path().join("farm.exr")), reference);
+    // The headers say the same too: the file does not depend on the threads.
+    assert_eq!(
+        std::fs::read(dir.path().join("one.exr")).unwrap(),
+        std::fs::read(dir.path().join("two.exr")).unwrap()
+    );
+
+    for workers in ["0", "1"] {
+        let refused = render_in(
+            dir.path(),
+            &["-o", "zero.exr", "--workers", workers, "--threads", "0"],
+        );
+        let stderr = String::from_utf8_lossy(&refused.stderr);
+        assert!(!refused.status.success(), "--threads 0 was accepted");
+        assert!(
+            stderr.contains("--threads") && stderr.contains("at least 1"),
+            "{stderr}"
+        );
+        assert!(!dir.path().join("zero.exr").exists());
+    }
+}
