@@ -1,6 +1,6 @@
 //! `spindle render SCENE.json -o OUT.exr [--workers N]`: render a scene on this machine and
 //! write the OpenEXR image (layers `total`, `surface`, `single_scatter`, `stderr`) and a PNG preview
-//! beside it (`OUT.png`).
+//! beside it (`OUT.png`), or with `-o OUT.png` the PNG preview alone.
 //!
 //! By default through an embedded local farm ([`crate::local_farm`]: a coordinator and N
 //! workers in this process, the same path a job takes on many machines); `--workers 0` renders
@@ -9,7 +9,7 @@
 //! attributes, for the whole film or for a `--crop` window (the EXR's data window, inside the
 //! film's display window).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result, anyhow, bail};
@@ -32,8 +32,8 @@ use crate::meter::{Meter, Show};
 pub struct RenderArgs {
     /// The scene file (JSON); OBJ paths in it are relative to it.
     pub scene: PathBuf,
-    /// The OpenEXR file to write (`.exr`); the preview goes to the same path with `.png`.
-    /// Optional with `--pixel`.
+    /// The image to write: `OUT.exr` (OpenEXR, with the tone-mapped PNG preview beside it as
+    /// `OUT.png`) or `OUT.png` (the preview alone). Optional with `--pixel`.
     #[arg(short, long, required_unless_present = "pixel")]
     pub output: Option<PathBuf>,
     /// Local farm workers (default: one per two cores, at least two); 0 renders in this
@@ -91,8 +91,8 @@ pub struct RenderArgs {
 }
 
 impl RenderArgs {
-    /// The EXR to write (`-o`, which only `--pixel` may leave out).
-    fn output(&self) -> Result<&std::path::Path> {
+    /// The image to write (`-o`, which only `--pixel` may leave out).
+    fn output(&self) -> Result<&Path> {
         self.output.as_deref().ok_or_else(|| {
             anyhow::anyhow!("-o OUT.exr is required (only --pixel may leave it out)")
         })
@@ -193,24 +193,37 @@ pub async fn run(args: &RenderArgs) -> Result<()> {
     on_local_farm(args, workers).await
 }
 
-/// Refuses, before any rendering, an output the image could not be written to as asked: not
-/// an `.exr` (its PNG preview, written beside it with `.png`, would replace it) or in a
-/// directory that does not exist.
-fn check_output(output: &std::path::Path) -> Result<()> {
-    let is_exr = output
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-    if !is_exr {
-        bail!(
-            "-o {}: must name an OpenEXR file ending in .exr (the PNG preview is written \
-             beside it as {})",
-            output.display(),
-            output.with_extension("png").display()
-        );
+/// What `-o` asks for, by its extension.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum OutputKind {
+    /// `.exr`: the OpenEXR image, and the PNG preview beside it.
+    Exr,
+    /// `.png`: the PNG preview alone.
+    Png,
+}
+
+impl OutputKind {
+    fn of(output: &Path) -> Result<OutputKind> {
+        let extension = output.extension().and_then(|e| e.to_str());
+        match extension.map(str::to_ascii_lowercase).as_deref() {
+            Some("exr") => Ok(OutputKind::Exr),
+            Some("png") => Ok(OutputKind::Png),
+            _ => bail!(
+                "-o {}: must end in .exr (the OpenEXR image, with its PNG preview written beside \
+                 it) or .png (the tone-mapped preview alone)",
+                output.display()
+            ),
+        }
     }
+}
+
+/// Refuses, before any rendering, an output the image could not be written to as asked: not
+/// an `.exr` or a `.png`, or in a directory that does not exist.
+fn check_output(output: &Path) -> Result<()> {
+    OutputKind::of(output)?;
     let dir = match output.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
-        _ => std::path::Path::new("."),
+        _ => Path::new("."),
     };
     if !dir.is_dir() {
         bail!(
@@ -308,7 +321,9 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
         args.tile_size,
         per_worker.join("+"),
     );
-    println!("preview {}", preview.display());
+    if let Some(preview) = preview {
+        println!("preview {}", preview.display());
+    }
     if let Some(p) = passes {
         println!(
             "{} of {} spp in {} passes; the same bits: --workers 0 --no-time-budget --spp {}",
@@ -441,7 +456,9 @@ fn in_process(args: &RenderArgs) -> Result<()> {
         threads_text(rayon::current_num_threads()),
         built.as_secs_f64(),
     );
-    println!("preview {}", preview.display());
+    if let Some(preview) = preview {
+        println!("preview {}", preview.display());
+    }
     if let Some(report) = passes {
         println!(
             "{} of {} spp in {} passes; the same bits: --workers 0 --no-time-budget --spp {}",
@@ -512,9 +529,10 @@ fn describe(
     }
 }
 
-/// Writes the EXR and the PNG preview beside it (and with `--error-png` the relative-error
-/// PNG); returns the preview's path.
-fn write_outputs(image: &Image, args: &RenderArgs) -> Result<PathBuf> {
+/// Writes what `-o` asks for: the EXR and the PNG preview beside it, or the PNG preview
+/// alone (and with `--error-png` the relative-error PNG); returns the path of a preview
+/// written beside the output.
+fn write_outputs(image: &Image, args: &RenderArgs) -> Result<Option<PathBuf>> {
     let output = args.output()?;
     if args.error_png {
         let path = output.with_extension("stderr.png");
@@ -523,14 +541,22 @@ fn write_outputs(image: &Image, args: &RenderArgs) -> Result<PathBuf> {
             .with_context(|| format!("cannot write {}", path.display()))?;
         println!("relative error {}", path.display());
     }
+    let preview = match OutputKind::of(output)? {
+        OutputKind::Png => {
+            image
+                .write_png_preview(output)
+                .with_context(|| format!("cannot write {}", output.display()))?;
+            return Ok(None);
+        }
+        OutputKind::Exr => output.with_extension("png"),
+    };
     image
         .write_exr(output)
         .with_context(|| format!("cannot write {}", output.display()))?;
-    let preview = output.with_extension("png");
     image
         .write_png_preview(&preview)
         .with_context(|| format!("cannot write {}", preview.display()))?;
-    Ok(preview)
+    Ok(Some(preview))
 }
 
 /// With `--stats`: the counters, then the mean of each layer over the pixels and channels.

@@ -122,12 +122,12 @@ fn render_in(dir: &Path, args: &[&str]) -> std::process::Output {
 #[test]
 fn outputs_that_cannot_be_written_as_asked_are_refused_before_rendering() {
     let dir = tempfile::tempdir().unwrap();
-    // The PNG preview would replace a `.png` output: refused, nothing written.
-    let out = render_in(dir.path(), &["-o", "out.png", "--workers", "0"]);
+    // Neither an EXR nor a PNG: refused naming -o and the two kinds, nothing written.
+    let out = render_in(dir.path(), &["-o", "out.tif", "--workers", "0"]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
     assert!(
-        stderr.contains("-o out.png: must name an OpenEXR file"),
+        stderr.contains("-o out.tif: must end in .exr") && stderr.contains(".png"),
         "{stderr}"
     );
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
@@ -332,4 +332,49 @@ fn threads_size_the_render_and_change_no_pixel() {
         );
         assert!(!dir.path().join("zero.exr").exists());
     }
+}
+
+/// `-o x.png` writes the tone-mapped preview alone, the film's size, on both paths; the same
+/// bytes as the preview an EXR render writes beside its EXR.
+#[test]
+fn a_png_output_is_the_preview_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let desc = SceneDescription::from_json(
+        &std::fs::read_to_string(repo().join("scenes/tiny.json")).unwrap(),
+    )
+    .unwrap();
+    for workers in ["0", "1"] {
+        let sub = dir.path().join(format!("workers-{workers}"));
+        std::fs::create_dir(&sub).unwrap();
+        let done = render_in(&sub, &["-o", "tiny.png", "--workers", workers]);
+        let stdout = String::from_utf8_lossy(&done.stdout);
+        assert!(
+            done.status.success(),
+            "{stdout}\n{}",
+            String::from_utf8_lossy(&done.stderr)
+        );
+        assert!(stdout.contains("rendered tiny.png"), "{stdout}");
+        let names: Vec<_> = std::fs::read_dir(&sub)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .collect();
+        assert_eq!(names, ["tiny.png"], "only the PNG is written");
+        let decoder = png::Decoder::new(std::io::BufReader::new(
+            std::fs::File::open(sub.join("tiny.png")).unwrap(),
+        ));
+        let mut reader = decoder.read_info().unwrap();
+        let mut pixels = vec![0; reader.output_buffer_size().unwrap()];
+        let frame = reader.next_frame(&mut pixels).unwrap();
+        assert_eq!(
+            (frame.width, frame.height),
+            (desc.film.width, desc.film.height)
+        );
+        assert!(pixels.iter().any(|&v| v > 0), "the preview is all black");
+    }
+    let exr = render_in(dir.path(), &["-o", "tiny.exr", "--workers", "0"]);
+    assert!(exr.status.success());
+    assert_eq!(
+        std::fs::read(dir.path().join("tiny.png")).unwrap(),
+        std::fs::read(dir.path().join("workers-0/tiny.png")).unwrap()
+    );
 }
