@@ -16,6 +16,7 @@ use spindle_worker as worker;
 use tokio_util::sync::CancellationToken;
 
 use crate::api::{Api, ImageFile};
+use crate::meter::Show;
 use crate::progress::{Wait, require_done, wait_for};
 use crate::secret::random_hex;
 
@@ -37,6 +38,8 @@ pub struct LocalFarm {
     pub workers: usize,
     /// Render threads of each worker (`None`: the cores shared among the workers).
     pub threads: Option<usize>,
+    /// Where the job's progress goes.
+    pub show: Show,
 }
 
 /// The default number of workers: one per two cores, at least two.
@@ -45,14 +48,18 @@ pub fn default_workers() -> usize {
     (cores / 2).max(2)
 }
 
-/// Starts the coordinator and the farm's workers, submits the job through `submit`, waits with
-/// a progress bar, downloads the final EXR, and stops everything.
+/// Starts the coordinator and the farm's workers, submits the job through `submit`, waits
+/// showing its progress, downloads the final EXR, and stops everything.
 pub async fn render<F, Fut>(farm: LocalFarm, submit: F) -> Result<FarmResult>
 where
     F: FnOnce(Api) -> Fut,
     Fut: Future<Output = Result<JobInfo>>,
 {
-    render_waiting(farm, Wait::default(), submit).await
+    let wait = Wait {
+        show: farm.show,
+        ..Wait::default()
+    };
+    render_waiting(farm, wait, submit).await
 }
 
 /// [`render`], waiting for the job as `wait` says.
@@ -141,11 +148,12 @@ mod tests {
             poll: hour,
             quiet: hour,
             unreachable_for: hour,
-            show: crate::meter::Show::Nothing,
+            show: Show::Nothing,
         };
         let farm = LocalFarm {
             workers: 1,
             threads: None,
+            show: Show::Nothing,
         };
         let result = tokio::time::timeout(
             Duration::from_secs(60),

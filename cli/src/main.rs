@@ -100,16 +100,19 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    // Quiet by default: the embedded farm of `render` would otherwise log every tile.
+    let cli = Cli::parse();
+    // Warnings and errors only (the embedded farm of `render` would otherwise log every tile);
+    // errors only with `render --quiet`. RUST_LOG, when set, decides instead.
+    let quiet = matches!(&cli.command, Command::Render(args) if args.quiet);
     tracing_subscriber::fmt()
         .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn")),
+            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| {
+                tracing_subscriber::EnvFilter::new(if quiet { "error" } else { "warn" })
+            }),
         )
         .with_writer(std::io::stderr)
         .with_ansi(std::io::stderr().is_terminal())
         .init();
-    let cli = Cli::parse();
     let runtime = match tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()

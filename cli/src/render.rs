@@ -46,6 +46,11 @@ pub struct RenderArgs {
     /// do not depend on it.
     #[arg(long, value_name = "N", value_parser = parse_threads)]
     pub threads: Option<usize>,
+    /// Print nothing but errors, as pbrt's `--quiet`: no plan, progress, warnings or
+    /// "rendered" line (the scene's warnings stay in the EXR header). What was asked for by
+    /// name is still printed: `--stats`, and `--pixel`'s value.
+    #[arg(short, long)]
+    pub quiet: bool,
     /// Set a scene field without editing the file: `--set objects[0].material.eta=1.33`
     /// (the path as validation messages write it; the value as JSON, or else a string).
     /// Repeatable; checked as the scene file is.
@@ -96,6 +101,18 @@ impl RenderArgs {
         self.output.as_deref().ok_or_else(|| {
             anyhow::anyhow!("-o OUT.exr is required (only --pixel may leave it out)")
         })
+    }
+
+    /// Where progress goes.
+    fn show(&self) -> Show {
+        Show::on_stderr(self.quiet)
+    }
+
+    /// Prints a line of the command's report on stdout, unless `--quiet`.
+    fn say(&self, line: std::fmt::Arguments) {
+        if !self.quiet {
+            println!("{line}");
+        }
     }
 
     /// Applies `--spp`, `--seed` and `--no-time-budget` to a scene.
@@ -272,11 +289,12 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
     refuse_unlit_media(&scene, &args.scene, args.allow_blocked)?;
     let provenance = provenance(&scene);
     drop(scene);
-    print_plan(&provenance.plan);
+    print_plan(args, &provenance.plan);
     drop(files);
     let farm = crate::local_farm::LocalFarm {
         workers,
         threads: args.threads,
+        show: args.show(),
     };
     let result = crate::local_farm::render(farm, |api| async move {
         let edit = |s: &mut SceneDescription| args.edit(s);
@@ -307,7 +325,7 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
     describe(a, args, &desc, &stats, &provenance);
     a.insert("spindle.workers".into(), workers.to_string());
     let preview = write_outputs(&image, args)?;
-    println!(
+    args.say(format_args!(
         "rendered {} ({}x{}{}, {} spp) on a local farm of {workers} workers × {} in {:.2} s \
          ({} of {} px: {} per worker)",
         args.output()?.display(),
@@ -320,15 +338,15 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
         crate::status::count(result.job.tiles_total, "tile"),
         args.tile_size,
         per_worker.join("+"),
-    );
+    ));
     if let Some(preview) = preview {
-        println!("preview {}", preview.display());
+        args.say(format_args!("preview {}", preview.display()));
     }
     if let Some(p) = passes {
-        println!(
+        args.say(format_args!(
             "{} of {} spp in {} passes; the same bits: --workers 0 --no-time-budget --spp {}",
             p.spp, files_spp, p.pass, p.spp
-        );
+        ));
     }
     print_stats(args, &stats, &image);
     Ok(())
@@ -344,12 +362,14 @@ fn in_process(args: &RenderArgs) -> Result<()> {
         .with_context(|| format!("invalid scene {}", args.scene.display()))?;
     let summary = scene.summary();
     let built = started.elapsed();
-    for warning in scene.warnings() {
-        eprintln!("warning: {warning}");
+    if !args.quiet {
+        for warning in scene.warnings() {
+            eprintln!("warning: {warning}");
+        }
     }
     refuse_unlit_media(&scene, &args.scene, args.allow_blocked)?;
     let provenance = provenance(&scene);
-    print_plan(&provenance.plan);
+    print_plan(args, &provenance.plan);
 
     let full = TileRect {
         x: 0,
@@ -407,14 +427,15 @@ fn in_process(args: &RenderArgs) -> Result<()> {
         .filter(|_| args.pixel.is_none());
     let (mut image, stats, passes) = match budget {
         None => {
-            let progress = Meter::new(Show::on_stderr(false), rows, "render", "rows");
+            let progress = Meter::new(args.show(), rows, "render", "rows");
             let (image, stats) =
                 spindle_render::render_frame(&scene, region, &|rows| progress.inc(rows))?;
             progress.finish();
             (image, stats, None)
         }
         Some(budget) => {
-            let (image, stats, report) = render_in_passes(&scene, region, budget, render_started)?;
+            let (image, stats, report) =
+                render_in_passes(&scene, region, budget, render_started, args.quiet)?;
             (image, stats, Some(report))
         }
     };
@@ -440,7 +461,7 @@ fn in_process(args: &RenderArgs) -> Result<()> {
     }
     let preview = write_outputs(&image, args)?;
 
-    println!(
+    args.say(format_args!(
         "rendered {} ({}x{}{}, {} spp, {} triangles in {} objects, {} lights, {} warnings) in {:.2} s \
          on {} (scene build {:.2} s)",
         args.output()?.display(),
@@ -455,40 +476,44 @@ fn in_process(args: &RenderArgs) -> Result<()> {
         rendered.as_secs_f64(),
         threads_text(rayon::current_num_threads()),
         built.as_secs_f64(),
-    );
+    ));
     if let Some(preview) = preview {
-        println!("preview {}", preview.display());
+        args.say(format_args!("preview {}", preview.display()));
     }
     if let Some(report) = passes {
-        println!(
+        args.say(format_args!(
             "{} of {} spp in {} passes; the same bits: --workers 0 --no-time-budget --spp {}",
             report.spp,
             scene.film().spp,
             report.passes,
             report.spp
-        );
+        ));
     }
     print_stats(args, &stats, &image);
     Ok(())
 }
 
 /// `film.time_budget_s`: progressive passes while the next one, taking as long as the last,
-/// would end within `budget` seconds of `started` (the first pass always runs).
+/// would end within `budget` seconds of `started` (the first pass always runs); each pass is
+/// reported on stderr unless `quiet`.
 fn render_in_passes(
     scene: &Scene,
     region: TileRect,
     budget: f64,
     started: Instant,
+    quiet: bool,
 ) -> Result<(Image, RenderStats, spindle_render::PassReport)> {
     let mut last_end = 0.0;
     let result = spindle_render::render_frame_passes(scene, region, &mut |report| {
         let now = started.elapsed().as_secs_f64();
         let pass_seconds = now - last_end;
         last_end = now;
-        eprintln!(
-            "pass {}: {} spp, {} pixels still sampling, {now:.1} s of {budget} s",
-            report.passes, report.spp, report.pixels_sampling
-        );
+        if !quiet {
+            eprintln!(
+                "pass {}: {} spp, {} pixels still sampling, {now:.1} s of {budget} s",
+                report.passes, report.spp, report.pixels_sampling
+            );
+        }
         now + pass_seconds <= budget
     })?;
     Ok(result)
@@ -503,9 +528,9 @@ fn describe_crop(region: Option<TileRect>) -> String {
 }
 
 /// Says which single-scattering model runs for each object (the `auto` method's choice).
-fn print_plan(plan: &[String]) {
+fn print_plan(args: &RenderArgs, plan: &[String]) {
     for line in plan {
-        println!("single scattering: {line}");
+        args.say(format_args!("single scattering: {line}"));
     }
 }
 
@@ -539,7 +564,7 @@ fn write_outputs(image: &Image, args: &RenderArgs) -> Result<Option<PathBuf>> {
         image
             .write_png_relative_error(&path)
             .with_context(|| format!("cannot write {}", path.display()))?;
-        println!("relative error {}", path.display());
+        args.say(format_args!("relative error {}", path.display()));
     }
     let preview = match OutputKind::of(output)? {
         OutputKind::Png => {

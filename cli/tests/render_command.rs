@@ -378,3 +378,35 @@ fn a_png_output_is_the_preview_alone() {
         std::fs::read(dir.path().join("workers-0/tiny.png")).unwrap()
     );
 }
+
+/// `--quiet` prints nothing but errors, as pbrt's does: no plan, no progress, no "rendered"
+/// line, on both paths; the image is written all the same, and an error still says what is
+/// wrong.
+#[test]
+fn quiet_prints_nothing_but_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    for workers in ["0", "1"] {
+        let out = format!("quiet-{workers}.exr");
+        let done = render_in(dir.path(), &["-o", &out, "--workers", workers, "--quiet"]);
+        assert!(done.status.success());
+        assert_eq!(
+            String::from_utf8_lossy(&done.stdout),
+            "",
+            "{workers}: stdout"
+        );
+        assert_eq!(
+            String::from_utf8_lossy(&done.stderr),
+            "",
+            "{workers}: stderr"
+        );
+        assert!(dir.path().join(&out).is_file());
+    }
+    let refused = render_in(
+        dir.path(),
+        &["-o", "bad.exr", "--quiet", "--set", "film.width=0"],
+    );
+    assert!(!refused.status.success());
+    assert!(refused.stdout.is_empty());
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(stderr.contains("--set film.width: "), "{stderr}");
+}
