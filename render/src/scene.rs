@@ -13,8 +13,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use spindle_common::scene as desc;
 use spindle_common::validate::{
-    MAX_COORDINATE, MAX_TRIANGLES, MAX_WAVE_SEGMENTS, SceneError, count_obj_triangles,
-    scene_triangles,
+    MAX_COORDINATE, MAX_TRIANGLES, SceneError, count_obj_triangles, scene_triangles,
 };
 
 use crate::Rgb;
@@ -485,41 +484,19 @@ fn build_object(
             }
             bumpy_sphere(radius, s, amplitude, frequency, seed)
         }
+        // Its sizes and waves were checked by `SceneDescription::validate`, which `Scene::build`
+        // runs first.
         desc::Shape::Box { size, waves } => {
-            for (i, &side) in size.iter().enumerate() {
-                positive(&format!("shape.size[{i}]"), side)?;
-            }
-            match waves {
-                None => wavy_box(DVec3::from_array(*size), None),
-                Some(w) => {
-                    let checked = |f: &str, ok: bool, v: f64, what: &str| {
-                        if ok {
-                            Ok(())
-                        } else {
-                            Err(SceneError::new(
-                                field(&format!("shape.waves.{f}")),
-                                format!("must be {what}, got {v}"),
-                            ))
-                        }
-                    };
-                    let a = w.amplitude;
-                    checked(
-                        "amplitude",
-                        a.is_finite() && a >= 0.0 && a < size[1] / 2.0,
-                        a,
-                        "finite, >= 0 and less than half the box's height",
-                    )?;
-                    positive("shape.waves.wavelength", w.wavelength)?;
-                    if !(1..=MAX_WAVE_SEGMENTS).contains(&w.segments) {
-                        return Err(SceneError::new(
-                            field("shape.waves.segments"),
-                            format!("must be from 1 to {MAX_WAVE_SEGMENTS}, got {}", w.segments),
-                        ));
-                    }
-                    let surface = WaveField::new(a, w.wavelength, w.seed);
-                    wavy_box(DVec3::from_array(*size), Some((&surface, w.segments)))
-                }
-            }
+            let surface = waves.as_ref().map(|w| {
+                (
+                    WaveField::new(w.amplitude, w.wavelength, w.seed),
+                    w.segments,
+                )
+            });
+            wavy_box(
+                DVec3::from_array(*size),
+                surface.as_ref().map(|(field, segments)| (field, *segments)),
+            )
         }
     };
     let transform =

@@ -108,6 +108,20 @@ fn floor_segment(scene: &Scene, entry: DVec3, receiver: DVec3) -> (Segment, Rece
     (segment, receiver)
 }
 
+/// What the floor point `on_floor` receives through the boundary (`ρ/π` of its irradiance),
+/// seen along the camera segment from the surface point `entry`, and the statistics.
+fn light_on_floor(
+    scene: &Scene,
+    entry: DVec3,
+    on_floor: DVec3,
+    mut sampler: Sampler,
+) -> (Rgb, RenderStats) {
+    let (segment, receiver) = floor_segment(scene, entry, on_floor);
+    let mut stats = RenderStats::default();
+    let value = through_boundary(scene, &segment, &receiver, &mut sampler, &mut stats);
+    (value, stats)
+}
+
 /// The sun (parallel rays of irradiance `E`) over a flat water surface: the power crossing a
 /// unit of the interface is `(1 − F(θ_i)) E cos θ_i`, and a floor parallel to it receives that,
 /// attenuated by `e^{−σ_t d/cos θ_t}` at depth d. The floor's radiance is `ρ/π` of it: through
@@ -143,10 +157,8 @@ fn the_sun_through_a_flat_surface_lights_the_floor_as_energy_conservation_says()
                 let on_floor = entry + inside * (1.0 / cos_tc);
 
                 // The receiver connection alone.
-                let (segment, receiver) = floor_segment(&scene, entry, on_floor);
-                let mut stats = RenderStats::default();
-                let mut sampler = Sampler::new(7, 1, 2, 0);
-                let value = through_boundary(&scene, &segment, &receiver, &mut sampler, &mut stats);
+                let (value, stats) =
+                    light_on_floor(&scene, entry, on_floor, Sampler::new(7, 1, 2, 0));
                 let error = value.x / truth - 1.0;
                 println!(
                     "sun {sun}, σt {sigma}, camera {camera}: receiver {:.8e} vs {truth:.8e} \
@@ -209,10 +221,8 @@ fn a_pool_of_box_shapes_lights_its_floor_as_energy_conservation_says() {
                 RHO / PI * (1.0 - fresnel_air_to(ETA, cos_i)) * e * cos_i * (-sigma / cos_t).exp();
             for on_floor in [DVec3::new(0.3, -0.2, -1.0), DVec3::new(-4.0, 6.5, -1.0)] {
                 let entry = on_floor + DVec3::new(0.1, 0.05, 1.0);
-                let (segment, receiver) = floor_segment(&scene, entry, on_floor);
-                let mut stats = RenderStats::default();
-                let mut sampler = Sampler::new(7, 1, 2, 0);
-                let value = through_boundary(&scene, &segment, &receiver, &mut sampler, &mut stats);
+                let (value, stats) =
+                    light_on_floor(&scene, entry, on_floor, Sampler::new(7, 1, 2, 0));
                 let error = value.x / truth - 1.0;
                 println!(
                     "sun {sun}, σt {sigma}, floor {on_floor}: {:.8e} vs {truth:.8e} ({error:+.2e})",
@@ -257,10 +267,12 @@ fn an_index_matched_medium_lights_its_floor_along_the_straight_path() {
         ] {
             let scene = pool_of_index(1.0, sigma, lights);
             let r = DVec3::new(-0.4, 0.7, -1.0);
-            let (segment, receiver) = floor_segment(&scene, DVec3::new(-0.2, 0.6, 0.0), r);
-            let mut stats = RenderStats::default();
-            let mut sampler = Sampler::new(1, 0, 0, 0);
-            let value = through_boundary(&scene, &segment, &receiver, &mut sampler, &mut stats);
+            let (value, _) = light_on_floor(
+                &scene,
+                DVec3::new(-0.2, 0.6, 0.0),
+                r,
+                Sampler::new(1, 0, 0, 0),
+            );
             let truth = RHO / PI * truth_at(r);
             let error = value.x / truth - 1.0;
             println!(
@@ -345,10 +357,7 @@ fn a_point_light_over_a_flat_surface_matches_the_quartic() {
             let truth = RHO / PI * e_floor;
 
             let entry = DVec3::new(r.x + 0.2, r.y - 0.1, 0.0);
-            let (segment, receiver) = floor_segment(&scene, entry, r);
-            let mut stats = RenderStats::default();
-            let mut sampler = Sampler::new(3, 0, 0, 0);
-            let value = through_boundary(&scene, &segment, &receiver, &mut sampler, &mut stats);
+            let (value, stats) = light_on_floor(&scene, entry, r, Sampler::new(3, 0, 0, 0));
             let error = value.x / truth - 1.0;
             println!(
                 "σt {sigma}, receiver {r}: {:.8e} vs quartic {truth:.8e} ({error:+.2e}), {} \

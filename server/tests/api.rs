@@ -429,51 +429,39 @@ async fn assets_are_stored_by_verified_hash_and_obj_triangles_are_counted() {
     assert_eq!(spec["assets"]["meshes/quad.obj"], json!(hash));
     // One more triangle would exceed the limit: the OBJ's faces are counted.
     let bigger = [mesh.as_slice(), b"f 1 2 3\n"].concat();
-    let bigger_hash = asset_hash(&bigger);
-    let (status, _) = c
-        .send(
-            Method::PUT,
-            &format!("/v1/assets/{bigger_hash}"),
-            Some(CLIENT),
-            bigger,
-        )
-        .await;
-    assert_eq!(status, StatusCode::OK);
-    let (status, v) = c
-        .client(
-            Method::POST,
-            "/v1/jobs",
-            Some(json!({"scene": s, "assets": {"meshes/quad.obj": bigger_hash}})),
-        )
-        .await;
+    let (status, v) = submit_with_mesh(&c, &s, bigger).await;
     assert_eq!(status, StatusCode::BAD_REQUEST, "{v}");
     assert!(v["error"].as_str().unwrap().contains("triangles"), "{v}");
     // A mesh no worker could build (a face naming a vertex the file lacks) is refused at
     // submission, naming the asset and the line, not at the first lease.
     let broken = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 9\n".to_vec();
-    let broken_hash = asset_hash(&broken);
-    let (status, _) = c
-        .send(
-            Method::PUT,
-            &format!("/v1/assets/{broken_hash}"),
-            Some(CLIENT),
-            broken,
-        )
-        .await;
-    assert_eq!(status, StatusCode::OK);
-    let (status, v) = c
-        .client(
-            Method::POST,
-            "/v1/jobs",
-            Some(json!({"scene": s, "assets": {"meshes/quad.obj": broken_hash}})),
-        )
-        .await;
+    let (status, v) = submit_with_mesh(&c, &s, broken).await;
     assert_eq!(status, StatusCode::BAD_REQUEST, "{v}");
     assert_eq!(
         v["error"],
         "assets.meshes/quad.obj: line 5: a face names vertex 9, but the file has 4 vertices",
         "{v}"
     );
+}
+
+/// Uploads `mesh` (the upload must succeed) and submits `scene` with it as `meshes/quad.obj`.
+async fn submit_with_mesh(c: &Coordinator, scene: &Value, mesh: Vec<u8>) -> (StatusCode, Value) {
+    let hash = asset_hash(&mesh);
+    let (status, _) = c
+        .send(
+            Method::PUT,
+            &format!("/v1/assets/{hash}"),
+            Some(CLIENT),
+            mesh,
+        )
+        .await;
+    assert_eq!(status, StatusCode::OK);
+    c.client(
+        Method::POST,
+        "/v1/jobs",
+        Some(json!({"scene": scene, "assets": {"meshes/quad.obj": hash}})),
+    )
+    .await
 }
 
 /// The routes `docs/api.md` lists, as (path, method, token).
