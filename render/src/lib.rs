@@ -10,12 +10,14 @@
 pub mod bvh;
 pub mod camera;
 pub mod containment;
+pub mod flat_face;
 pub mod frame;
 pub mod fresnel;
 pub mod interfaces;
 pub mod light;
 pub mod medium;
 pub mod mesh;
+pub mod nesting;
 pub mod obj;
 pub mod procedural;
 pub mod provenance;

@@ -20,10 +20,12 @@ use crate::Rgb;
 use crate::bvh::Bvh;
 use crate::camera::Camera;
 use crate::containment;
+use crate::flat_face::FlatFaces;
 use crate::interfaces::{self, SecondInterface};
 use crate::light::{Light, SceneSphere};
 use crate::medium::Medium;
 use crate::mesh::{MeshReport, TriangleMesh};
+use crate::nesting::{self, Route, absolute_eta, relative_eta};
 use crate::obj::parse_obj_with;
 use crate::procedural::{MAX_SUBDIVISIONS, bumpy_sphere, icosphere};
 use crate::scatter::prune::beam_table::BeamTable;
@@ -52,7 +54,9 @@ fn nested_error(path: impl Into<String>, problem: impl ToString) -> SceneError {
     }
 }
 
-/// A smooth refractive interface around a homogeneous medium. `eta` = n_medium / n_air ≥ 1.
+/// A smooth refractive interface around a homogeneous medium. `eta` = n_medium / n_air ≥ 1 (the
+/// medium's own index; across the surface of an object nested in another medium the index that
+/// counts is [`Scene::relative_eta`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Dielectric {
     pub eta: f64,
@@ -121,6 +125,10 @@ pub struct Scene {
     camera_medium: Option<usize>,
     /// Per light, the dielectric object whose medium holds it, if any.
     light_media: Vec<Option<usize>>,
+    /// Per object, the dielectric object whose medium surrounds it (`nesting`), if any.
+    outer: Vec<Option<usize>>,
+    /// Per object, its flat faces if a dielectric lies inside it (empty otherwise).
+    flat_faces: Vec<FlatFaces>,
     /// Objects and lights whose light would cross a second dielectric interface.
     second_interfaces: Vec<SecondInterface>,
     /// `beam_tables[o][j]`: object `o`'s beams for point light `j` (see [`beam_tables`]).
@@ -236,29 +244,37 @@ impl Scene {
 
         let light_centers: Vec<DVec3> = lights.iter().map(Light::center).collect();
         check_media_layout(&objects, camera.position(), &light_centers)?;
-        let camera_medium = medium_at(&objects, "the camera", camera.position(), &mut warnings);
+        let camera_medium = medium_at(&objects, camera.position());
         let mut light_media = Vec::with_capacity(lights.len());
         for (j, light) in lights.iter().enumerate() {
             check_straddle(&objects, j, light)?;
-            let what = format!("lights[{j}]");
-            light_media.push(medium_at(&objects, &what, light.center(), &mut warnings));
+            light_media.push(medium_at(&objects, light.center()));
         }
-        let in_air: Vec<Option<DVec3>> = lights
-            .iter()
-            .zip(&light_media)
-            .map(|(light, medium)| medium.is_none().then(|| light.center()))
+        let outer = nesting::outer_media(&objects);
+        let flat_faces: Vec<FlatFaces> = (0..objects.len())
+            .map(|q| {
+                let surrounds_dielectric = objects.iter().enumerate().any(|(o, object)| {
+                    outer[o] == Some(q) && matches!(object.material, Material::Dielectric(_))
+                });
+                if surrounds_dielectric {
+                    FlatFaces::of(&objects[q].mesh, scale)
+                } else {
+                    FlatFaces::default()
+                }
+            })
             .collect();
-        let second_interfaces = interfaces::second_interfaces(&objects, &in_air);
+        let second_interfaces = interfaces::second_interfaces(
+            &objects,
+            &interfaces::Layout {
+                lights: &lights,
+                light_media: &light_media,
+                outer: &outer,
+                flat_faces: &flat_faces,
+            },
+        );
         warnings.extend(second_interfaces.iter().map(SecondInterface::describe));
-        for (inner, outer) in interfaces::nested(&objects) {
-            warnings.push(format!(
-                "{} lies inside {}: media do not nest, so light scattered in {} behind {} is \
-                 blocked rather than refracted through it",
-                objects[inner].name, objects[outer].name, objects[outer].name, objects[inner].name
-            ));
-        }
 
-        let beam_tables = beam_tables(&objects, &lights, &light_media);
+        let beam_tables = beam_tables(&objects, &outer, &lights, &light_media);
 
         Ok(Scene {
             objects,
@@ -272,6 +288,8 @@ impl Scene {
             scale,
             camera_medium,
             light_media,
+            outer,
+            flat_faces,
             second_interfaces,
             beam_tables,
             warnings,
@@ -317,10 +335,11 @@ impl Scene {
         &self.second_interfaces
     }
 
-    /// Sentences naming each dielectric object that no light reaches through one interface —
-    /// every light is in another medium, or in the air wholly behind another dielectric (a
-    /// second interface, not modelled; an object nested inside another is one) — so its medium
-    /// would render black. Empty when the scene has no lights (a dark scene is what was asked).
+    /// Sentences naming each dielectric object that no light reaches by a modelled route
+    /// ([`Route`]) — every light is in a medium other than its own and the one around it, or
+    /// wholly behind another dielectric (a second interface that is not a flat face of the medium
+    /// around it) — so its medium would render black. Empty when the scene has no lights (a dark
+    /// scene is what was asked).
     pub fn unlit_media(&self) -> Vec<String> {
         if self.lights.is_empty() {
             return Vec::new();
@@ -330,18 +349,20 @@ impl Scene {
             if !matches!(object.material, Material::Dielectric(_)) {
                 continue;
             }
-            let reaches = |j: usize| match self.light_media[j] {
-                Some(medium) => medium == o,
-                None => !self
+            let reaches = |j: usize| match self.route(o, j) {
+                Route::Inside => true,
+                Route::Around | Route::FlatFaces { .. } => !self
                     .second_interfaces
                     .iter()
                     .any(|s| s.object == o && s.light == j && s.share >= 1.0),
+                Route::Unmodelled => false,
             };
             if !(0..self.lights.len()).any(reaches) {
                 unlit.push(format!(
                     "{} gets no light: every light reaches its medium only through a second \
-                     refractive interface (another dielectric in the way, or the light in \
-                     another medium), which is not modelled, so it would render black",
+                     refractive interface that is not modelled (another dielectric in the way, \
+                     a curved surface of the medium around it, or a light that is not \
+                     directional outside it, or in another medium), so it would render black",
                     object.name
                 ));
             }
@@ -353,6 +374,37 @@ impl Scene {
     /// straight paths, with no interface), if any.
     pub fn light_medium(&self, light: usize) -> Option<usize> {
         self.light_media[light]
+    }
+
+    /// The dielectric object whose medium surrounds object `o`, if any (`nesting`).
+    pub fn outer(&self, o: usize) -> Option<usize> {
+        self.outer[o]
+    }
+
+    /// Object `o`'s index relative to the medium around it (1 if it is not a dielectric).
+    pub fn relative_eta(&self, o: usize) -> f64 {
+        relative_eta(&self.objects, &self.outer, o)
+    }
+
+    /// The refractive index of the medium of `medium` (the air's, 1, for `None`).
+    pub fn absolute_eta(&self, medium: Option<usize>) -> f64 {
+        absolute_eta(&self.objects, medium)
+    }
+
+    /// Object `o`'s flat faces (`flat_face`), found only for objects with a dielectric inside.
+    pub fn flat_faces(&self, o: usize) -> &FlatFaces {
+        &self.flat_faces[o]
+    }
+
+    /// How the light of `lights[light]` reaches the medium of object `o`.
+    pub fn route(&self, o: usize, light: usize) -> Route {
+        nesting::route(
+            o,
+            &self.lights[light],
+            self.light_media[light],
+            &self.outer,
+            &self.flat_faces,
+        )
     }
 
     pub fn film(&self) -> &desc::Film {
@@ -561,14 +613,9 @@ fn build_object(
 mod tests;
 
 /// The dielectric object whose medium holds `p` (`containment::holds`: inside or on its
-/// surface), if any. Media do not nest: inside several, the smallest (by bounding box)
-/// is taken and a warning says so.
-fn medium_at(
-    objects: &[Object],
-    what: &str,
-    p: DVec3,
-    warnings: &mut Vec<String>,
-) -> Option<usize> {
+/// surface), if any: inside several nested media, the innermost (the smallest by bounding box,
+/// as in `nesting`).
+fn medium_at(objects: &[Object], p: DVec3) -> Option<usize> {
     let holding: Vec<usize> = objects
         .iter()
         .enumerate()
@@ -580,20 +627,10 @@ fn medium_at(
         let (lo, hi) = objects[*i].mesh.bounds();
         (hi - lo).element_product()
     };
-    let innermost = holding
+    holding
         .iter()
         .copied()
-        .min_by(|a, b| volume(a).total_cmp(&volume(b)))?;
-    if holding.len() > 1 {
-        let names: Vec<&str> = holding.iter().map(|&i| objects[i].name.as_str()).collect();
-        warnings.push(format!(
-            "{what} is inside nested media ({}): media do not nest, so it is taken to be in {} \
-             with air around it",
-            names.join(", "),
-            objects[innermost].name
-        ));
-    }
-    Some(innermost)
+        .min_by(|a, b| volume(a).total_cmp(&volume(b)).then(a.cmp(b)))
 }
 
 /// Each dielectric object's medium must be apart from every other's or wholly inside it (the
@@ -761,6 +798,7 @@ fn segment_crosses_triangle(a: DVec3, b: DVec3, [p, q, r]: [DVec3; 3]) -> bool {
 /// the first [`BEAM_TABLE_BUDGET`] such lights only.
 fn beam_tables(
     objects: &[Object],
+    outer: &[Option<usize>],
     lights: &[Light],
     light_media: &[Option<usize>],
 ) -> Vec<Vec<Option<BeamTable>>> {
@@ -778,8 +816,10 @@ fn beam_tables(
         .collect();
     objects
         .iter()
-        .map(|o| match o.material {
-            Material::Dielectric(d) => chosen
+        .enumerate()
+        .map(|(i, o)| match o.material {
+            // Only objects in the air see the lights in the air along straight lines.
+            Material::Dielectric(d) if outer[i].is_none() => chosen
                 .iter()
                 .map(|light| light.map(|l| BeamTable::build(&o.bounds, l, d.eta)))
                 .collect(),

@@ -8,8 +8,11 @@
 //! [`BRANCH_CUTOFF`]. Inside a medium, reflections off the boundary are followed up to
 //! `integrator.internal_reflections` times per visit (total internal reflection counts as one).
 //!
-//! Radiance-mode bookkeeping (radiance/n² is invariant): refracting *into* a medium of index η
-//! multiplies the throughput by `(1 − F)/η²`, refracting *out* by `(1 − F)·η²`.
+//! Media nest (`nesting`): an object's surface is the interface between its medium and the one
+//! around it (the air, or the medium it is nested in), crossed with the index of the first
+//! relative to the second, η = `Scene::relative_eta`. Radiance-mode bookkeeping (radiance/n² is
+//! invariant): refracting *into* an object multiplies the throughput by `(1 − F)/η²`, refracting
+//! *out* by `(1 − F)·η²`.
 //!
 //! Every straight piece of the path inside a medium is a [`Segment`] handed to
 //! [`scatter::single_scatter`]; its result times the segment throughput is the `single_scatter`
@@ -22,9 +25,9 @@
 //!
 //! Dielectric objects block shadow rays: a diffuse floor under a glass sphere, in the air, gets
 //! no light through the glass (caustics on surfaces in the air are not rendered). A diffuse
-//! surface *inside* a medium (a pool's floor) is lit by the lights outside through the medium's
-//! boundary (`scatter::receiver`), into the `surface` layer. Objects must not overlap (media do
-//! not nest).
+//! surface *inside* a medium (a pool's floor) is lit by the lights in that medium directly,
+//! attenuated, and by the lights outside through the medium's boundary (`scatter::receiver`),
+//! into the `surface` layer. Dielectric surfaces must not cross (`Scene::build` refuses it).
 
 use glam::DVec3;
 use spindle_common::stats::RenderStats;
@@ -49,11 +52,8 @@ pub const BRANCH_CUTOFF: f64 = 1e-6;
 
 /// Whether a branch with `throughput`, in the medium of `inside` (if any), is worth following.
 fn significant(scene: &Scene, throughput: Rgb, inside: Option<usize>) -> bool {
-    let pending = match inside.map(|o| scene.objects()[o].material) {
-        Some(Material::Dielectric(d)) => d.eta * d.eta,
-        _ => 1.0,
-    };
-    throughput.max_element() * pending >= BRANCH_CUTOFF
+    let n = scene.absolute_eta(inside);
+    throughput.max_element() * (n * n) >= BRANCH_CUTOFF
 }
 
 /// The radiance of one camera sample, by layer. `total` = `surface` + `single_scatter`.
@@ -161,12 +161,13 @@ fn trace(
             match hit {
                 Some(hit) => interact(scene, &ray, &hit, state, sampler, stats, out),
                 None => {
-                    // Escaped through a hole (or a leak between triangles): carry on in air from
-                    // the edge of the object's bounds, as if through a perfectly transmitting
-                    // interface (no Fresnel; the pending 1/η² is given back).
+                    // Escaped through a hole (or a leak between triangles): carry on in the medium
+                    // around from the edge of the object's bounds, as if through a perfectly
+                    // transmitting interface (no Fresnel; the pending 1/η² is given back).
+                    let eta = scene.relative_eta(object);
                     let outside = PathState {
-                        inside: None,
-                        throughput: state.throughput * (dielectric.eta * dielectric.eta),
+                        inside: scene.outer(object),
+                        throughput: state.throughput * (eta * eta),
                         ..state
                     };
                     let from = Ray::new(ray.at(length), ray.dir);
@@ -201,7 +202,8 @@ fn interact(
                 incoming: ray.dir,
                 reflectance,
             };
-            out.surface += state.throughput * direct_diffuse(scene, &diffuse, sampler, stats);
+            out.surface +=
+                state.throughput * direct_diffuse(scene, &diffuse, state.inside, sampler, stats);
             // Inside a medium, the lights outside it reach the surface through its boundary.
             if let Some(medium) = state.inside {
                 let segment = Segment {
@@ -224,18 +226,17 @@ fn interact(
                     );
             }
         }
-        Material::Dielectric(dielectric) => {
+        Material::Dielectric(_) => {
             if state.depth >= scene.integrator().max_depth {
                 return;
             }
             // Which side the ray arrives from is geometry's call; the optics use the shading
-            // normal turned to face the ray.
+            // normal turned to face the ray. The surface parts the object's medium from the
+            // medium around it.
             let entering = ray.dir.dot(geometric) < 0.0;
-            let eta = if entering {
-                dielectric.eta
-            } else {
-                1.0 / dielectric.eta
-            };
+            let relative = scene.relative_eta(object);
+            let eta = if entering { relative } else { 1.0 / relative };
+            let around = scene.outer(object);
             let facing = if ray.dir.dot(shading) < 0.0 {
                 shading
             } else {
@@ -243,7 +244,13 @@ fn interact(
             };
             let fresnel = reflectance(-ray.dir.dot(facing), eta);
             let depth = state.depth + 1;
-            let inside_after = |dir: DVec3| (dir.dot(geometric) < 0.0).then_some(object);
+            let inside_after = |dir: DVec3| {
+                if dir.dot(geometric) < 0.0 {
+                    Some(object)
+                } else {
+                    around
+                }
+            };
 
             // Reflection: outside, always a candidate; inside, one more internal reflection.
             let internal = if entering { 0 } else { state.internal + 1 };
@@ -265,9 +272,9 @@ fn interact(
             // Refraction (none under total internal reflection), with the n² bookkeeping.
             if let Some(dir) = refract(ray.dir, facing, eta) {
                 let n2 = if entering {
-                    1.0 / (dielectric.eta * dielectric.eta)
+                    1.0 / (relative * relative)
                 } else {
-                    dielectric.eta * dielectric.eta
+                    relative * relative
                 };
                 let throughput = state.throughput * ((1.0 - fresnel) * n2);
                 if significant(scene, throughput, inside_after(dir)) {
@@ -312,11 +319,14 @@ impl DiffuseHit {
     }
 }
 
-/// Radiance leaving a Lambertian surface at `p` toward the camera, lit directly by every light
-/// (one sample each), with shadow rays against all geometry (dielectrics included).
+/// Radiance leaving a Lambertian surface at `p`, in the medium of `inside` (if any), toward the
+/// camera, lit directly by every light (one sample each), with shadow rays against all geometry
+/// (dielectrics included) and the medium's attenuation along them. A light in another medium is
+/// behind a boundary, which blocks its shadow ray.
 fn direct_diffuse(
     scene: &Scene,
     hit: &DiffuseHit,
+    inside: Option<usize>,
     sampler: &mut Sampler,
     stats: &mut RenderStats,
 ) -> Rgb {
@@ -339,7 +349,11 @@ fn direct_diffuse(
         if scene.bvh().any_hit(shadow.origin, shadow.dir, reach) {
             continue;
         }
-        sum += sample.weight * cos;
+        let attenuation = match inside.map(|o| scene.objects()[o].material) {
+            Some(Material::Dielectric(d)) => d.medium.transmittance(sample.distance),
+            _ => Rgb::ONE,
+        };
+        sum += sample.weight * attenuation * cos;
     }
     sum * reflectance / std::f64::consts::PI
 }

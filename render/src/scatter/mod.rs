@@ -13,11 +13,15 @@
 //! through the boundary (surface light, not single scattering).
 //!
 //! A light inside the segment's own medium needs no refraction at all (`methods::in_medium`,
-//! whatever the plan); one inside another medium would need two interfaces and gives nothing
-//! (said by the plan).
+//! whatever the plan). A light in the medium around the object (the air, or the medium the object
+//! is nested in) reaches it through its one interface, with the relative index; a directional
+//! light in the air reaches an object nested one level down through the outer medium's flat faces
+//! (`flat_face`: a directional light in the outer medium again, exactly). Any other light would
+//! need a second interface that is not modelled and gives nothing (said by the plan and the
+//! scene's warnings, `interfaces`).
 //!
-//! Sign conventions, stated once for all of these modules: η = n_medium / n_outside > 1 (the
-//! medium is denser); the light is outside (but for `in_medium`); the shading normal points outward, toward the light;
+//! Sign conventions, stated once for all of these modules: η = n_medium / n_outside (the medium
+//! around it; > 1 when the medium is denser); the light is outside (but for `in_medium`); the shading normal points outward, toward the light;
 //! the camera segment is `V(t) = origin + t·dir` with `dir` a unit vector, so t is a distance.
 
 pub mod geometry;
@@ -31,11 +35,13 @@ pub mod triangle;
 use spindle_common::stats::RenderStats;
 
 use crate::Rgb;
+use crate::nesting::Route;
 use crate::sampler::Sampler;
 use crate::scene::{Material, Scene};
 use crate::segment::Segment;
+use light_sample::LightPoint;
 use light_sample::{Receivers, sample_light};
-use methods::connect::Connection;
+use methods::connect::{Connection, Outside, for_each_outside};
 pub use plan::describe_plan;
 use plan::{Model, object_bounds, plan_for};
 use prune::descent::DescentStack;
@@ -55,7 +61,7 @@ pub fn single_scatter(
     let Material::Dielectric(dielectric) = object.material else {
         return Rgb::ZERO;
     };
-    let plan = plan_for(scene, object);
+    let plan = plan_for(scene, segment.object);
     let Some(bounds) = object_bounds(object) else {
         return Rgb::ZERO;
     };
@@ -67,15 +73,14 @@ pub fn single_scatter(
     let mut stack = DescentStack::default();
     let mut total = Rgb::ZERO;
     let receivers = Receivers::of_segment(bounds, segment.origin, segment.dir, segment.length);
+    let eta = scene.relative_eta(segment.object);
+    let length = segment.length;
     for (j, light) in scene.lights().iter().enumerate() {
-        let light = sample_light(light, receivers, sampler);
-        let light_medium = scene.light_medium(j);
-        // A light in another medium would reach this one through two interfaces: not modelled
-        // (the plan says so for every such light and object).
-        if light.is_black() || light_medium.is_some_and(|o| o != segment.object) {
+        let point = sample_light(light, receivers, sampler);
+        if point.is_black() {
             continue;
         }
-        let connection = Connection {
+        let connection = |light: LightPoint, outside: Outside| Connection {
             scene,
             object_index: segment.object,
             object,
@@ -83,42 +88,48 @@ pub fn single_scatter(
                 origin: segment.origin,
                 dir: segment.dir,
                 light: light.position(),
-                eta: dielectric.eta,
+                eta,
             },
             medium,
             light,
+            outside,
             beam_table: scene.beam_table(segment.object, j),
         };
-        let length = segment.length;
-        if light_medium == Some(segment.object) {
+        if scene.route(segment.object, j) == Route::Inside {
+            let connection = connection(point, Outside::Straight(None));
             total += methods::in_medium::estimate(&connection, length, settings, sampler, stats);
             continue;
         }
-        total += match plan.model {
-            Model::Skip => Rgb::ZERO,
-            Model::Interval => methods::interval::estimate(
-                &connection,
-                length,
-                settings,
-                &mut stack,
-                sampler,
-                stats,
-            ),
-            Model::PointSampling => methods::point_sampling::estimate(
-                &connection,
-                length,
-                settings,
-                &mut stack,
-                sampler,
-                stats,
-            ),
-            Model::StraightLine => {
-                methods::straight_line::estimate(&connection, length, settings, sampler, stats)
-            }
-            Model::Reference => {
-                methods::reference::estimate(&connection, length, settings, sampler, stats)
-            }
-        };
+        // Around the object, or through the flat faces of the medium around it; a light that
+        // reaches the medium by no modelled route gives nothing (the plan says so).
+        for_each_outside(scene, segment.object, j, point, |light, outside| {
+            let connection = connection(light, outside);
+            total += match plan.model {
+                Model::Skip => Rgb::ZERO,
+                Model::Interval => methods::interval::estimate(
+                    &connection,
+                    length,
+                    settings,
+                    &mut stack,
+                    sampler,
+                    stats,
+                ),
+                Model::PointSampling => methods::point_sampling::estimate(
+                    &connection,
+                    length,
+                    settings,
+                    &mut stack,
+                    sampler,
+                    stats,
+                ),
+                Model::StraightLine => {
+                    methods::straight_line::estimate(&connection, length, settings, sampler, stats)
+                }
+                Model::Reference => {
+                    methods::reference::estimate(&connection, length, settings, sampler, stats)
+                }
+            };
+        });
     }
     debug_assert!(total.is_finite(), "single_scatter: {total}");
     total

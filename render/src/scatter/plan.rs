@@ -22,6 +22,7 @@ use glam::DVec3;
 
 use crate::containment;
 use crate::light::{FAR, Light};
+use crate::nesting::Route;
 use crate::scatter::geometry::BoundingSphere;
 use crate::scene::{Material, Object, Scene};
 
@@ -49,8 +50,9 @@ pub struct Plan {
 /// 1 + 1e-10 and black at 1 + 1e-11 (render/tests/degenerate.rs, `eta_tends_to_one`).
 pub const INDEX_MATCHED: f64 = 1e-7;
 
-/// The plan for `object` of `scene` under the integrator settings.
-pub fn plan_for(scene: &Scene, object: &Object) -> Plan {
+/// The plan for `objects[o]` of `scene` under the integrator settings.
+pub fn plan_for(scene: &Scene, o: usize) -> Plan {
+    let object = &scene.objects()[o];
     let settings = &scene.integrator().single_scatter;
     let skip = |reason| Plan {
         model: Model::Skip,
@@ -61,7 +63,7 @@ pub fn plan_for(scene: &Scene, object: &Object) -> Plan {
     };
     let medium = dielectric.medium;
     let explicit = |model, reason| Plan { model, reason };
-    let index_matched = (dielectric.eta - 1.0).abs() <= INDEX_MATCHED;
+    let index_matched = (scene.relative_eta(o) - 1.0).abs() <= INDEX_MATCHED;
     match settings.method {
         ScatterMethod::None => return skip("method none"),
         ScatterMethod::Interval | ScatterMethod::PointSampling | ScatterMethod::Reference
@@ -131,7 +133,7 @@ pub fn describe_plan(scene: &Scene) -> Vec<String> {
         .iter()
         .enumerate()
         .map(|(i, object)| {
-            let plan = plan_for(scene, object);
+            let plan = plan_for(scene, i);
             let model = match plan.model {
                 Model::Skip => "none",
                 Model::Interval => "interval",
@@ -167,6 +169,7 @@ fn describe_placement(scene: &Scene) -> Vec<String> {
         ));
     }
     lines.extend(describe_receivers(scene));
+    lines.extend(describe_nesting(scene));
     for (j, light) in scene.lights().iter().enumerate() {
         if let Light::Directional {
             anchor, distance, ..
@@ -186,20 +189,53 @@ fn describe_placement(scene: &Scene) -> Vec<String> {
             .objects()
             .iter()
             .enumerate()
-            .filter(|&(i, object)| i != o && plan_for(scene, object).model != Model::Skip)
+            .filter(|&(i, _)| {
+                i != o
+                    && plan_for(scene, i).model != Model::Skip
+                    && scene.route(i, j) == Route::Unmodelled
+            })
             .map(|(i, _)| format!("objects[{i}]"))
             .collect();
         let unlit = if others.is_empty() {
             String::new()
         } else {
             format!(
-                "; {} get no single scattering from it (two interfaces, not modelled)",
+                "; {} get no single scattering from it (a second interface, not modelled)",
                 others.join(", ")
             )
         };
         lines.push(format!(
-            "lights[{j}]: inside objects[{o}] (lights its medium along straight paths, no \
-             interface{unlit})"
+            "lights[{j}]: inside objects[{o}] (lights its medium along straight paths, and the \
+             media nested in it through their one interface{unlit})"
+        ));
+    }
+    lines
+}
+
+/// One line per dielectric object nested in another's medium: the relative index its surface has,
+/// and which lights reach it through the flat faces of the medium around it.
+fn describe_nesting(scene: &Scene) -> Vec<String> {
+    let mut lines = Vec::new();
+    for (o, object) in scene.objects().iter().enumerate() {
+        let (Some(q), Material::Dielectric(_)) = (scene.outer(o), object.material) else {
+            continue;
+        };
+        let through_faces: Vec<String> = (0..scene.lights().len())
+            .filter(|&j| scene.route(o, j) == (Route::FlatFaces { outer: q }))
+            .map(|j| format!("lights[{j}]"))
+            .collect();
+        let faces = if through_faces.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "; {} enter objects[{q}]'s medium through its {} flat faces (exact)",
+                through_faces.join(", "),
+                scene.flat_faces(q).faces.len()
+            )
+        };
+        lines.push(format!(
+            "objects[{o}]: nested in objects[{q}]'s medium (relative index {:.4}){faces}",
+            scene.relative_eta(o)
         ));
     }
     lines

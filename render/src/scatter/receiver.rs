@@ -37,7 +37,10 @@
 //!
 //! One light point per light and camera sample (`light_sample`, all of its apexes at `R`).
 //! Lights inside the medium light the surface directly (the transport's shadow rays); lights in
-//! another medium would need two interfaces and give nothing here. Not modelled either: a
+//! the medium around it (the air, or the medium it is nested in) reach it through the boundary,
+//! and a directional light in the air through the outer medium's flat faces too
+//! (`connect::for_each_outside`); lights elsewhere would need a second interface and give nothing
+//! here. Not modelled either: a
 //! diffuse surface in the air behind a dielectric (a caustic on a table), which stays in the
 //! glass's shadow.
 
@@ -48,7 +51,7 @@ use crate::Rgb;
 use crate::ray::{OFFSET_SCALE, Ray};
 use crate::sampler::Sampler;
 use crate::scatter::light_sample::{APEXES, Receivers, sample_light};
-use crate::scatter::methods::connect::Connection;
+use crate::scatter::methods::connect::{Connection, for_each_outside};
 use crate::scatter::methods::edge_scans::EdgeScans;
 use crate::scatter::plan::object_bounds;
 use crate::scatter::prune::descent::{DescentStack, for_each_candidate};
@@ -100,40 +103,43 @@ pub fn through_boundary(
     let mut stack = DescentStack::default();
     let mut scans = EdgeScans::default();
     let mut total = Rgb::ZERO;
+    let eta = scene.relative_eta(segment.object);
     for (j, light) in scene.lights().iter().enumerate() {
         // Always draw the numbers, so later dimensions do not depend on what follows.
-        let light = sample_light(light, receivers, sampler);
-        if light.is_black() || scene.light_medium(j).is_some() {
+        let point = sample_light(light, receivers, sampler);
+        if point.is_black() {
             continue;
         }
-        let connection = Connection {
-            scene,
-            object_index: segment.object,
-            object,
-            ends: PathEnds {
-                origin: segment.origin,
-                dir: segment.dir,
-                light: light.position(),
-                eta: dielectric.eta,
-            },
-            medium: dielectric.medium,
-            light,
-            beam_table: scene.beam_table(segment.object, j),
-        };
-        let irradiance = if dielectric.eta == 1.0 {
-            straight_irradiance(&connection, receiver, stats)
-        } else {
-            scans.clear();
-            refracted_irradiance(
-                &connection,
-                segment.length,
-                receiver,
-                &mut scans,
-                &mut stack,
-                stats,
-            )
-        };
-        total += irradiance;
+        for_each_outside(scene, segment.object, j, point, |light, outside| {
+            let connection = Connection {
+                scene,
+                object_index: segment.object,
+                object,
+                ends: PathEnds {
+                    origin: segment.origin,
+                    dir: segment.dir,
+                    light: light.position(),
+                    eta,
+                },
+                medium: dielectric.medium,
+                light,
+                outside,
+                beam_table: scene.beam_table(segment.object, j),
+            };
+            total += if eta == 1.0 {
+                straight_irradiance(&connection, receiver, stats)
+            } else {
+                scans.clear();
+                refracted_irradiance(
+                    &connection,
+                    segment.length,
+                    receiver,
+                    &mut scans,
+                    &mut stack,
+                    stats,
+                )
+            };
+        });
     }
     debug_assert!(total.is_finite(), "receiver: {total}");
     total * receiver.reflectance / std::f64::consts::PI
@@ -233,14 +239,15 @@ fn path_irradiance(
     if intensity.max_element() <= 0.0 {
         return Rgb::ZERO;
     }
-    if !connection.light_reaches(triangle as usize, path.p, path.omega_l, stats)
+    let outside = connection.light_transmittance(triangle as usize, path.p, path.omega_l, stats);
+    if outside.max_element() <= 0.0
         || !sees_boundary_point(connection, triangle as usize, receiver, path.p, stats)
     {
         return Rgb::ZERO;
     }
     let eta = connection.ends.eta;
     let scalar = path.fresnel_t * eta * eta * cos_r / path.d_factor;
-    intensity * connection.medium.transmittance(path.d_v) * scalar
+    outside * intensity * connection.medium.transmittance(path.d_v) * scalar
 }
 
 /// The ray from the receiver to `x` on the object's triangle `triangle` meets nothing before
@@ -297,10 +304,14 @@ fn straight_irradiance(
         return Rgb::ZERO;
     }
     let x = ray.at(hit.t);
-    if !connection.light_reaches(triangle, x, dir, stats) {
+    let outside = connection.light_transmittance(triangle, x, dir, stats);
+    if outside.max_element() <= 0.0 {
         return Rgb::ZERO;
     }
     let intensity = connection.light.intensity_toward(receiver.p);
     let distance2 = light.distance_squared(receiver.p);
-    intensity * connection.medium.transmittance(x.distance(receiver.p)) * (cos_r / distance2)
+    outside
+        * intensity
+        * connection.medium.transmittance(x.distance(receiver.p))
+        * (cos_r / distance2)
 }

@@ -81,7 +81,8 @@ fn point_radiance(connection: &Connection<'_>, t: f64, stats: &mut RenderStats) 
     if transmittance <= 0.0 || intensity.max_element() <= 0.0 {
         return Rgb::ZERO;
     }
-    if !connection.light_reaches(triangle, x, dir, stats) {
+    let outside = connection.light_transmittance(triangle, x, dir, stats);
+    if outside.max_element() <= 0.0 {
         return Rgb::ZERO;
     }
     let medium = connection.medium;
@@ -89,5 +90,9 @@ fn point_radiance(connection: &Connection<'_>, t: f64, stats: &mut RenderStats) 
     let phase = medium.phase.eval(dir.dot(ends.dir));
     let inside = hit.t;
     let attenuation = (-(t + inside) * medium.sigma_t).exp();
-    medium.sigma_s * intensity * attenuation * (phase * transmittance / (distance * distance))
+    medium.sigma_s
+        * outside
+        * intensity
+        * attenuation
+        * (phase * transmittance / (distance * distance))
 }
