@@ -51,6 +51,33 @@ pub fn surfaces_cross(a: &TriangleMesh, a_bvh: &Bvh, b: &TriangleMesh, b_bvh: &B
     edge_meets(a, b_bvh) || edge_meets(b, a_bvh)
 }
 
+/// Surfaces closer than this share of the larger mesh's size touch.
+pub const TOUCHING: f64 = 1e-7;
+
+/// Whether the surfaces of `a` and `b` touch over an area (a liquid against a glass's wall, a
+/// box resting in another's corner): the centroid of some triangle of one lies on the other,
+/// within [`TOUCHING`] of the larger mesh's size along the triangle's normal. Contact at a
+/// point or along a line (a sphere resting on a face) does not count.
+pub fn surfaces_touch(a: &TriangleMesh, a_bvh: &Bvh, b: &TriangleMesh, b_bvh: &Bvh) -> bool {
+    let ((a_lo, a_hi), (b_lo, b_hi)) = (a.bounds(), b.bounds());
+    if a_hi.cmplt(b_lo).any() || b_hi.cmplt(a_lo).any() {
+        return false;
+    }
+    let size = (a_hi - a_lo).max_element().max((b_hi - b_lo).max_element());
+    let tolerance = TOUCHING * size;
+    let centroid_on = |mesh: &TriangleMesh, other: &Bvh| {
+        (0..mesh.triangle_count()).any(|t| {
+            let Some(normal) = mesh.geometric_normal(t).try_normalize() else {
+                return false;
+            };
+            let [p, q, r] = mesh.corners(t);
+            let centroid = (p + q + r) / 3.0;
+            other.any_hit(centroid - tolerance * normal, normal, 2.0 * tolerance)
+        })
+    };
+    centroid_on(a, b_bvh) || centroid_on(b, a_bvh)
+}
+
 /// An edge's ends are moved this share of its length inward before it is tested, so an end on
 /// the other surface does not count whichever way its rounding falls.
 pub const EDGE_END_MARGIN: f64 = 1e-7;

@@ -634,7 +634,9 @@ fn medium_at(objects: &[Object], p: DVec3) -> Option<usize> {
 }
 
 /// Each dielectric object's medium must be apart from every other's or wholly inside it (the
-/// region two crossing surfaces both bound has no one medium), and must not lie inside a closed
+/// region two crossing surfaces both bound has no one medium) without touching it over an area
+/// (two coincident surfaces would be one interface between two media, which is not modelled: a
+/// ray would meet either at random), and must not lie inside a closed
 /// diffuse object that the camera is outside of or that holds no light (nothing there could be
 /// seen or lit; a closed room around the camera and a light is fine). Refused naming both objects.
 fn check_media_layout(
@@ -647,6 +649,20 @@ fn check_media_layout(
         for (k, other) in objects.iter().enumerate() {
             if k == i {
                 continue;
+            }
+            let touch =
+                || containment::surfaces_touch(&inner.mesh, &inner.bvh, &other.mesh, &other.bvh);
+            if dielectric(other) && k < i && touch() {
+                return Err(SceneError::new(
+                    inner.name.clone(),
+                    format!(
+                        "its surface touches the surface of {} over an area: two media in \
+                         contact (a liquid against a glass's wall) are not modelled as one \
+                         interface; leave a gap between them (the inner object slightly \
+                         smaller), which renders as a thin film of air",
+                        other.name
+                    ),
+                ));
             }
             let cross =
                 || containment::surfaces_cross(&inner.mesh, &inner.bvh, &other.mesh, &other.bvh);

@@ -273,6 +273,18 @@ fn media_that_overlap_or_hide_in_a_diffuse_object_are_refused() {
         message.starts_with("objects[1]: its surface crosses the surface of objects[0]"),
         "{message}"
     );
+    // A liquid filling the bottom of a glass box's inside, its faces on the box's: one surface
+    // between two media, refused rather than met at random.
+    let touching = format!(
+        r#"{{ "shape": {{ "type": "box", "size": [2, 2, 2] }}, {GLASS} }},
+           {{ "shape": {{ "type": "box", "size": [2, 1, 2] }},
+              "transform": {{ "translate": [0, -0.5, 0] }}, {GLASS} }}"#
+    );
+    let message = error(&touching, &light("[0, 4, 0]"), &none);
+    assert!(
+        message.starts_with("objects[1]: its surface touches the surface of objects[0]"),
+        "{message}"
+    );
     let nested = format!(
         "{}, {}",
         sphere("[0, 0, 0]", 1.0, GLASS),
