@@ -214,13 +214,23 @@ impl Paths<'_> {
                     if normal.dot(dir) <= 0.0 {
                         continue;
                     }
-                    facing = true;
-                    let exit = objects[*outer].bvh.closest_hit(&Ray::new(p, dir));
-                    let Some(exit) = exit.filter(|h| faces.face_of(h.triangle as usize) == Some(f))
-                    else {
-                        all.push(*outer);
+                    let Some(exit) = objects[*outer].bvh.closest_hit(&Ray::new(p, dir)) else {
                         continue;
                     };
+                    match faces.face_of(exit.triangle as usize) {
+                        Some(g) if g == f => facing = true,
+                        // Toward another flat face: no light comes from there along this
+                        // direction (the rays that would have entered through `f` do not reach
+                        // `p`), so this direction is not the light's.
+                        Some(_) => continue,
+                        // Out through a curved part of the surface: light arrives there through
+                        // an interface that is not modelled.
+                        None => {
+                            facing = true;
+                            all.push(*outer);
+                            continue;
+                        }
+                    }
                     let mut by = blockers_on(p, dir, exit.t, *outer);
                     let x = p + exit.t * dir;
                     by.extend(blockers_on(x, *toward_air, f64::INFINITY, *outer));

@@ -3,6 +3,7 @@
 //! reported; a nested sphere is found, wholly behind the outer one.
 
 use crate::Assets;
+use crate::nesting::Route;
 use crate::scene::Scene;
 use serde_json::json;
 
@@ -125,4 +126,52 @@ fn a_medium_partly_shadowed_or_lit_from_inside_is_not_unlit() {
         unlit[0].starts_with("objects[1] gets no light"),
         "{unlit:?}"
     );
+}
+
+/// A glass sphere nested in a water box under the sun: through a flat top the whole lit side is
+/// reached (the sun enters through the box's flat faces, exactly), so nothing is reported and
+/// the medium is lit; under a wavy top the light would cross a curved surface first, which is
+/// said for most of the lit side, and a point light above the box reaches it by no route at all.
+#[test]
+fn the_sun_reaches_a_nested_sphere_through_flat_faces_and_not_through_waves() {
+    let with = |waves: serde_json::Value, light: serde_json::Value| {
+        let mut shape = json!({"type": "box", "size": [4, 2, 4]});
+        if !waves.is_null() {
+            shape["waves"] = waves;
+        }
+        let desc = serde_json::from_value(json!({
+            "camera": {"position": [0, 0, 10], "look_at": [0, 0, 0], "fov_y": 30},
+            "film": {"width": 4, "height": 4, "spp": 1},
+            "lights": [light],
+            "objects": [
+                {"shape": shape, "material": {"type": "dielectric", "eta": 1.33,
+                    "medium": {"sigma_t": [0.1, 0.1, 0.1], "albedo": [0.5, 0.5, 0.5]}}},
+                glass(0.4, [0.3, -0.2, 0.1])
+            ]
+        }))
+        .unwrap();
+        Scene::build(&desc, &Assets::new()).unwrap()
+    };
+    let sun = json!({"type": "directional", "direction": [0.3, -1, 0.2], "irradiance": [1, 1, 1]});
+    let flat = with(serde_json::Value::Null, sun.clone());
+    assert_eq!(flat.route(1, 0), Route::FlatFaces { outer: 0 });
+    assert!(
+        flat.second_interfaces().is_empty(),
+        "{:?}",
+        flat.second_interfaces()
+    );
+    assert!(flat.unlit_media().is_empty());
+
+    let waves = json!({"amplitude": 0.05, "wavelength": 1.0, "seed": 2, "segments": 16});
+    let wavy = with(waves.clone(), sun);
+    let found = &wavy.second_interfaces()[0];
+    assert_eq!((found.object, found.light), (1, 0));
+    assert_eq!(found.blockers, vec![0]);
+    assert!(found.share > 0.9, "{found:?}");
+
+    let lamp = json!({"type": "point", "position": [0, 5, 0], "intensity": [1, 1, 1]});
+    let lamp_lit = with(serde_json::Value::Null, lamp);
+    assert_eq!(lamp_lit.route(1, 0), Route::Unmodelled);
+    assert_eq!(lamp_lit.second_interfaces()[0].share, 1.0);
+    assert_eq!(lamp_lit.unlit_media().len(), 1);
 }

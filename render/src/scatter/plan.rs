@@ -228,7 +228,7 @@ fn describe_nesting(scene: &Scene) -> Vec<String> {
             String::new()
         } else {
             format!(
-                "; {} enter objects[{q}]'s medium through its {} flat faces (exact)",
+                "; {} reach objects[{q}]'s medium through its {} flat faces (exact)",
                 through_faces.join(", "),
                 scene.flat_faces(q).faces.len()
             )
