@@ -42,6 +42,7 @@ fn every_example_scene_loads_and_validates() {
     assert_eq!(
         names,
         [
+            "aquarium.json",
             "bumpy-sphere.json",
             "caustic.json",
             "glass-sphere.json",
