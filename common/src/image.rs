@@ -715,7 +715,7 @@ fn read_exr_from(bytes: &[u8], path: &str) -> Result<Image, ImageError> {
     for (names, dst) in EXR_CHANNELS.iter().zip(image.layers_mut()) {
         let n = names.len();
         for (c, name) in names.iter().enumerate() {
-            let found = layer.channel_data.list.iter().find(|ch| ch.name.eq(*name));
+            let found = layer.channel_data.list.iter().find(|ch| ch.name.eq(name));
             let channel = match found {
                 Some(channel) => channel,
                 // Files written before the `stderr` layer existed have none: it reads as 0.
