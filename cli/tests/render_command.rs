@@ -417,3 +417,45 @@ fn quiet_prints_nothing_but_errors() {
     let stderr = String::from_utf8_lossy(&refused.stderr);
     assert!(stderr.contains("--set film.width: "), "{stderr}");
 }
+
+/// `--error-png` at 1 spp (the tiny scene's) is refused before rendering, naming the flag, since
+/// a one-sample pixel has no error estimate; at 2 spp it is written. `--half` writes the EXR in
+/// half floats.
+#[test]
+fn error_png_needs_two_samples_and_half_writes_half_floats() {
+    let dir = tempfile::tempdir().unwrap();
+    let refused = render_in(
+        dir.path(),
+        &["-o", "one.exr", "--workers", "0", "--error-png"],
+    );
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success());
+    assert!(
+        stderr.contains("--error-png: film.spp is 1") && stderr.contains("--spp 2"),
+        "{stderr}"
+    );
+    assert!(!dir.path().join("one.exr").exists());
+
+    let done = render_in(
+        dir.path(),
+        &[
+            "-o",
+            "two.exr",
+            "--workers",
+            "0",
+            "--error-png",
+            "--spp",
+            "2",
+            "--half",
+        ],
+    );
+    assert!(
+        done.status.success(),
+        "{}",
+        String::from_utf8_lossy(&done.stderr)
+    );
+    assert!(dir.path().join("two.stderr.png").exists());
+    let image = read_exr(dir.path().join("two.exr")).unwrap();
+    assert_eq!(image.precision, spindle_common::image::Precision::Half);
+    assert!(image.total.iter().any(|&v| v > 0.0));
+}
