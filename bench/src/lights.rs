@@ -75,6 +75,7 @@ fn scene(light: desc::Light, size: u32, spp: u32, seed: u64) -> desc::SceneDescr
             seed,
             target_error: None,
             time_budget_s: None,
+            half: false,
         },
         lights: vec![light],
         objects: vec![desc::Object {
@@ -195,7 +196,7 @@ pub fn run(report: &mut Report, args: &BenchArgs) -> Result<()> {
                 relative_rmse(&image.total, &reference_total),
                 reference_total_noise,
             );
-            let estimate = NoiseSums::of_tile(&image).relative_error();
+            let estimate = NoiseSums::of_tile(&image).relative_error(spp);
             if let Some(e) = corrected {
                 by_spp.push((f64::from(spp), e));
                 by_seconds.push((seconds, e));

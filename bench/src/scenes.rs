@@ -167,6 +167,7 @@ pub fn film(size: u32, spp: u32) -> desc::Film {
         seed: 7,
         target_error: None,
         time_budget_s: None,
+        half: false,
     }
 }
 

@@ -1,26 +1,27 @@
 //! `spindle render SCENE.json -o OUT.exr [--workers N]`: render a scene on this machine and
-//! write the OpenEXR image (layers `total`, `surface`, `single_scatter`, `stderr`) and a PNG preview
+//! write the OpenEXR image (layers `total` with alpha, `surface`, `single_scatter`, `stderr`) and a PNG preview
 //! beside it (`OUT.png`), or with `-o OUT.png` the PNG preview alone.
 //!
 //! By default through an embedded local farm ([`crate::local_farm`]: a coordinator and N
 //! workers in this process, the same path a job takes on many machines); `--workers 0` renders
 //! in this process without the farm ([`spindle_render::render_frame`]), the single-process
 //! reference, which also offers `--pixel`. Both write the same pixels and the same header
-//! attributes, for the whole film or for a `--crop` window (the EXR's data window, inside the
+//! attributes (`spindle_common::header::describe`: but `renderTime`, which differs run to run),
+//! for the whole film or for a `--crop` window (the EXR's data window, inside the
 //! film's display window).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result, anyhow, bail};
+use spindle_common::header::{self, RenderFacts};
 use spindle_common::image::Image;
 use spindle_common::protocol::{DEFAULT_TILE_SIZE, check_crop};
-use spindle_common::provenance::Provenance;
 use spindle_common::scene::SceneDescription;
 use spindle_common::scene_override::{Override, apply_overrides};
 use spindle_common::stats::RenderStats;
-use spindle_common::tile::LAYER_NAMES;
 use spindle_common::tile::TileRect;
+use spindle_common::tile::{LAYERS, Layer};
 use spindle_render::{Scene, provenance, render_pixel};
 
 use spindle_common::scene_files::{load_scene, read_meshes};
@@ -64,6 +65,10 @@ pub struct RenderArgs {
     /// N its EXR's `spindle.spp`.
     #[arg(long)]
     pub no_time_budget: bool,
+    /// Write the EXR in 16-bit half floats (sets `film.half`): half the size, about three
+    /// significant digits.
+    #[arg(long)]
+    pub half: bool,
     /// Random seed (overrides `film.seed`).
     #[arg(long)]
     pub seed: Option<u64>,
@@ -86,7 +91,8 @@ pub struct RenderArgs {
     #[arg(long)]
     pub stats: bool,
     /// Also write `OUT.stderr.png`: each pixel's relative standard error (stderr / total),
-    /// black at 0 and white at 10 % or more, to see where the image is still noisy.
+    /// black at 0 and white at 10 % or more, to see where the image is still noisy. Refused at
+    /// 1 spp, where no pixel has two samples to estimate its error from.
     #[arg(long)]
     pub error_png: bool,
     /// Render even when a dielectric's medium gets no light (every light reaches it only
@@ -115,7 +121,8 @@ impl RenderArgs {
         }
     }
 
-    /// Applies `--spp`, `--seed` and `--no-time-budget` to a scene.
+    /// Applies `--set`, `--spp`, `--seed`, `--half` and `--no-time-budget` to a scene, and refuses
+    /// `--error-png` at 1 spp.
     fn edit(&self, scene: &mut SceneDescription) -> Result<()> {
         *scene = apply_overrides(scene, &self.set).map_err(|e| anyhow!("--set {e}"))?;
         if let Some(spp) = self.spp {
@@ -126,6 +133,15 @@ impl RenderArgs {
         }
         if let Some(seed) = self.seed {
             scene.film.seed = seed;
+        }
+        if self.half {
+            scene.film.half = true;
+        }
+        if self.error_png && scene.film.spp < 2 {
+            bail!(
+                "--error-png: film.spp is {}, and with one sample a pixel's error cannot be                  estimated (its stderr is 0, which is not \"no error\"); render with --spp 2                  or more",
+                scene.film.spp
+            );
         }
         Ok(())
     }
@@ -321,9 +337,25 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
         // The header says what the image is: the render of `spp` = the samples reached.
         desc.film.spp = p.spp;
     }
-    let a = &mut image.attributes;
-    describe(a, args, &desc, &stats, &provenance);
-    a.insert("spindle.workers".into(), workers.to_string());
+    let scene_file = args.scene.display().to_string();
+    header::describe(
+        &mut image,
+        &RenderFacts {
+            scene: &desc,
+            window: args.crop.unwrap_or(TileRect {
+                x: 0,
+                y: 0,
+                width: desc.film.width,
+                height: desc.film.height,
+            }),
+            stats: &stats,
+            provenance: Some(&provenance),
+            passes: passes.map(|p| (p.pass, p.budget_s)),
+            render_seconds: Some(started.elapsed().as_secs_f64()),
+            scene_file: Some(&scene_file),
+            workers: Some(workers),
+        },
+    );
     let preview = write_outputs(&image, args)?;
     args.say(format_args!(
         "rendered {} ({}x{}{}, {} spp) on a local farm of {workers} workers × {} in {:.2} s \
@@ -410,6 +442,7 @@ fn in_process(args: &RenderArgs) -> Result<()> {
         );
         println!("  surface        {:?}", r.surface.to_array());
         println!("  single_scatter {:?}", r.single_scatter.to_array());
+        println!("  alpha          {:?}", value.alpha);
         if args.output.is_none() {
             return Ok(());
         }
@@ -444,21 +477,20 @@ fn in_process(args: &RenderArgs) -> Result<()> {
         // The header says what the image is: the render of `spp` = the samples reached.
         files.desc.film.spp = report.spp;
     }
-    let a = &mut image.attributes;
-    describe(a, args, &files.desc, &stats, &provenance);
-    a.insert(
-        "spindle.region".into(),
-        format!(
-            "{},{},{},{}",
-            region.x, region.y, region.width, region.height
-        ),
+    let scene_file = args.scene.display().to_string();
+    header::describe(
+        &mut image,
+        &RenderFacts {
+            scene: &files.desc,
+            window: region,
+            stats: &stats,
+            provenance: Some(&provenance),
+            passes: passes.zip(budget).map(|(report, b)| (report.passes, b)),
+            render_seconds: Some(started.elapsed().as_secs_f64()),
+            scene_file: Some(&scene_file),
+            workers: None,
+        },
     );
-    if let Some(report) = passes {
-        a.insert("spindle.passes".into(), report.passes.to_string());
-        if let Some(budget) = scene.film().time_budget_s {
-            a.insert("spindle.time_budget_s".into(), budget.to_string());
-        }
-    }
     let preview = write_outputs(&image, args)?;
 
     args.say(format_args!(
@@ -534,26 +566,6 @@ fn print_plan(args: &RenderArgs, plan: &[String]) {
     }
 }
 
-/// The header attributes both paths write (the provenance's as the farm writes them).
-fn describe(
-    a: &mut std::collections::BTreeMap<String, String>,
-    args: &RenderArgs,
-    desc: &SceneDescription,
-    stats: &RenderStats,
-    provenance: &Provenance,
-) {
-    a.extend(provenance.header_attributes());
-    a.insert("spindle.scene".into(), args.scene.display().to_string());
-    a.insert("spindle.spp".into(), desc.film.spp.to_string());
-    a.insert("spindle.seed".into(), desc.film.seed.to_string());
-    if let Ok(integrator) = serde_json::to_string(&desc.integrator) {
-        a.insert("spindle.integrator".into(), integrator);
-    }
-    for (name, value) in stats.entries() {
-        a.insert(format!("spindle.stats.{name}"), value.to_string());
-    }
-}
-
 /// Writes what `-o` asks for: the EXR and the PNG preview beside it, or the PNG preview
 /// alone (and with `--error-png` the relative-error PNG); returns the path of a preview
 /// written beside the output.
@@ -590,7 +602,7 @@ fn print_stats(args: &RenderArgs, stats: &RenderStats, image: &Image) {
         for (name, value) in stats.entries() {
             println!("  {name:<24} {value}");
         }
-        for (name, layer) in LAYER_NAMES.iter().zip(image.layers()) {
+        for (Layer { name, .. }, layer) in LAYERS.iter().zip(image.layers()) {
             let mean = layer.iter().map(|&v| f64::from(v)).sum::<f64>() / layer.len().max(1) as f64;
             println!("  mean {name:<19} {mean:.6e}");
         }

@@ -273,14 +273,15 @@ fn set_overrides_a_scene_field_and_is_checked_like_the_file() {
     }
 }
 
-/// The four layers of an EXR, to compare two renders pixel for pixel.
-fn layers(path: &Path) -> [Vec<f32>; 4] {
+/// The layers of an EXR, alpha included, to compare two renders pixel for pixel.
+fn layers(path: &Path) -> [Vec<f32>; 5] {
     let image = read_exr(path).unwrap();
     [
         image.total,
         image.surface,
         image.single_scatter,
         image.stderr,
+        image.alpha,
     ]
 }
 
@@ -311,13 +312,19 @@ fn threads_size_the_render_and_change_no_pixel() {
     );
     let reference = layers(&dir.path().join("one.exr"));
     assert!(reference[0].iter().any(|&v| v > 0.0));
+    // Alpha is there and not trivial: the objects cover some pixels and leave others.
+    assert!(reference[4].iter().any(|&a| a > 0.0) && reference[4].iter().any(|&a| a < 1.0));
     assert_eq!(layers(&dir.path().join("two.exr")), reference);
     assert_eq!(layers(&dir.path().join("farm.exr")), reference);
-    // The headers say the same too: the file does not depend on the threads.
-    assert_eq!(
-        std::fs::read(dir.path().join("one.exr")).unwrap(),
-        std::fs::read(dir.path().join("two.exr")).unwrap()
-    );
+    // The headers say the same too: the file does not depend on the threads, but for
+    // `renderTime`, the one attribute that differs from run to run.
+    let timeless = |name: &str| {
+        let mut image = read_exr(dir.path().join(name)).unwrap();
+        assert!(image.standard.render_time.is_some_and(|s| s > 0.0));
+        image.standard.render_time = None;
+        image
+    };
+    assert_eq!(timeless("one.exr"), timeless("two.exr"));
 
     for workers in ["0", "1"] {
         let refused = render_in(
@@ -409,4 +416,46 @@ fn quiet_prints_nothing_but_errors() {
     assert!(refused.stdout.is_empty());
     let stderr = String::from_utf8_lossy(&refused.stderr);
     assert!(stderr.contains("--set film.width: "), "{stderr}");
+}
+
+/// `--error-png` at 1 spp (the tiny scene's) is refused before rendering, naming the flag, since
+/// a one-sample pixel has no error estimate; at 2 spp it is written. `--half` writes the EXR in
+/// half floats.
+#[test]
+fn error_png_needs_two_samples_and_half_writes_half_floats() {
+    let dir = tempfile::tempdir().unwrap();
+    let refused = render_in(
+        dir.path(),
+        &["-o", "one.exr", "--workers", "0", "--error-png"],
+    );
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success());
+    assert!(
+        stderr.contains("--error-png: film.spp is 1") && stderr.contains("--spp 2"),
+        "{stderr}"
+    );
+    assert!(!dir.path().join("one.exr").exists());
+
+    let done = render_in(
+        dir.path(),
+        &[
+            "-o",
+            "two.exr",
+            "--workers",
+            "0",
+            "--error-png",
+            "--spp",
+            "2",
+            "--half",
+        ],
+    );
+    assert!(
+        done.status.success(),
+        "{}",
+        String::from_utf8_lossy(&done.stderr)
+    );
+    assert!(dir.path().join("two.stderr.png").exists());
+    let image = read_exr(dir.path().join("two.exr")).unwrap();
+    assert_eq!(image.precision, spindle_common::image::Precision::Half);
+    assert!(image.total.iter().any(|&v| v > 0.0));
 }

@@ -1,4 +1,4 @@
-//! The finished image: the four layers of a frame or of a window of it (a crop), and the files
+//! The finished image: the layers of a frame or of a window of it (a crop), and the files
 //! spindle writes.
 //!
 //! Tiles arrive from anywhere (the coordinator takes them from workers over the network, so a
@@ -6,19 +6,26 @@
 //! as one OpenEXR file with a channel group per layer, and as a tone-mapped PNG preview.
 //!
 //! Conventions, stated once:
-//! - Pixels are RGB `f32`, row-major, row 0 at the top, the same layout as
-//!   [`TilePixels`]: sample `(row * width + col) * 3 + channel`.
+//! - Pixels are `f32`, row-major, row 0 at the top, the same layout as [`TilePixels`]:
+//!   sample `(row * width + col) * 3 + channel` of an RGB layer, `row * width + col` of `alpha`.
 //! - An image holds a window of its film ([`Placement`]): the whole film, or a crop. Tiles are
 //!   in film coordinates. In the EXR file the film is the display window and the image the
 //!   data window (OpenEXR's own notion of a crop, as pbrt-v4 writes one), so a viewer shows a
 //!   crop in its place in the frame; the PNG previews hold the window only.
 //! - The EXR file is one part, scanlines in increasing order, ZIP compression (16 lines per
-//!   block), channels `R,G,B` (= `total`), `surface.R/G/B`, `single_scatter.R/G/B` and
-//!   `stderr.R/G/B`, all
-//!   32-bit float, and one text header attribute (UTF-8) per entry of [`Image::attributes`].
-//! - The bytes of a file are a pure function of the image: no timestamps, and header
-//!   attributes are written sorted by name (as OpenEXR's own library does), so the same image
-//!   always gives the same bytes.
+//!   block), channels `R,G,B` (= `total`) and `A` (= `alpha`, the coverage a compositor
+//!   comps the element over a plate with; the colour is the renderer's mean over samples, so
+//!   with the default black `background` it is premultiplied by `A` as OpenEXR expects — a
+//!   sample that misses every object adds nothing — and a non-black background is in it),
+//!   `surface.R/G/B`, `single_scatter.R/G/B` and `stderr.R/G/B`, all 32-bit float (or all
+//!   16-bit half floats with [`Precision::Half`], `film.half`: half the size, about three
+//!   significant digits, values above 65504 become infinite), and one
+//!   text header attribute (UTF-8) per entry of [`Image::attributes`], beside the standard
+//!   attributes of [`Image::standard`] (`software`, `worldToCamera`, `worldToNDC`,
+//!   `renderTime`).
+//! - The bytes of a file are a pure function of the image: no timestamps but the image's own
+//!   `renderTime`, and header attributes are written sorted by name (as OpenEXR's own library
+//!   does), so the same image always gives the same bytes.
 //! - Files are written with [`atomic_write::write`], so a crash never leaves a half-written
 //!   file under the final name.
 //! - Non-finite samples (NaN, ±inf) are written as they are.
@@ -28,7 +35,7 @@ use std::io::Cursor;
 use std::path::Path;
 
 use crate::atomic_write;
-use crate::tile::{LAYER_NAMES, TilePixels, TileRect};
+use crate::tile::{LAYERS, TilePixels, TileRect};
 
 /// A bad tile, a bad image or a failed read or write.
 #[derive(Debug, thiserror::Error)]
@@ -80,10 +87,15 @@ pub enum ImageError {
     },
 }
 
-/// The EXR channel groups of each layer, in [`LAYER_NAMES`] order. `total` is the plain,
-/// ungrouped `R,G,B`, so any viewer shows it by default.
-const EXR_PREFIXES: [&str; 4] = ["", "surface.", "single_scatter.", "stderr."];
-const RGB: [&str; 3] = ["R", "G", "B"];
+/// The EXR channels of each layer, in [`LAYERS`] order. `total` is the plain, ungrouped
+/// `R,G,B` and `alpha` its `A`, so any viewer shows them by default.
+const EXR_CHANNELS: [&[&str]; 5] = [
+    &["R", "G", "B"],
+    &["surface.R", "surface.G", "surface.B"],
+    &["single_scatter.R", "single_scatter.G", "single_scatter.B"],
+    &["stderr.R", "stderr.G", "stderr.B"],
+    &["A"],
+];
 
 /// Where an image's pixels lie in the film they were rendered from: the film's size (the EXR
 /// display window) and the column and row of the image's top-left pixel in it (the origin of
@@ -96,8 +108,38 @@ pub struct Placement {
     pub film_height: u32,
 }
 
-/// A window of a frame (the whole frame, or a crop): the four layers of its pixels, where it
-/// lies in the film, and text attributes for the file header.
+/// The standard OpenEXR header attributes spindle writes (typed, unlike [`Image::attributes`]),
+/// each absent until set.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct StandardAttributes {
+    /// `software`: the program that wrote the image, `spindle <version>`.
+    pub software: Option<String>,
+    /// `worldToCamera` and `worldToNDC` (m44f, row after row, as
+    /// [`crate::camera_matrices`] defines them).
+    pub world_to_camera: Option<[f32; 16]>,
+    pub world_to_ndc: Option<[f32; 16]>,
+    /// `renderTime`: the render's wall-clock seconds (a float attribute, the name V-Ray and
+    /// others write). It differs from run to run, so it is kept apart from the attributes that
+    /// say what the pixels are.
+    pub render_time: Option<f32>,
+}
+
+/// The name of the render-time attribute: not one of OpenEXR's standard names, but the one
+/// renderers commonly write and compositors show.
+const RENDER_TIME: &str = "renderTime";
+
+/// The sample type of every channel of the EXR file.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Precision {
+    /// 32-bit floats: the renderer's values exactly.
+    #[default]
+    Float,
+    /// 16-bit half floats (`film.half`): each value rounded to the nearest half.
+    Half,
+}
+
+/// A window of a frame (the whole frame, or a crop): the layers of its pixels, where it lies
+/// in the film, and attributes for the file header.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Image {
     /// The size of the window (the pixels the layers hold).
@@ -113,8 +155,14 @@ pub struct Image {
     pub single_scatter: Vec<f32>,
     /// The standard error of each pixel's `total`, estimated from its samples, RGB, row-major.
     pub stderr: Vec<f32>,
+    /// The coverage of objects against the background, one value per pixel, row-major.
+    pub alpha: Vec<f32>,
     /// Written as text attributes of the EXR header (e.g. `spindle.spp` = `64`).
     pub attributes: BTreeMap<String, String>,
+    /// Standard attributes of the EXR header.
+    pub standard: StandardAttributes,
+    /// How the EXR file stores the samples.
+    pub precision: Precision,
 }
 
 impl Image {
@@ -134,7 +182,10 @@ impl Image {
             surface: vec![0.0; n],
             single_scatter: vec![0.0; n],
             stderr: vec![0.0; n],
+            alpha: vec![0.0; n / 3],
             attributes: BTreeMap::new(),
+            standard: StandardAttributes::default(),
+            precision: Precision::Float,
         }
     }
 
@@ -186,33 +237,35 @@ impl Image {
         }
     }
 
-    /// Samples per layer: three per pixel.
-    fn sample_count(&self) -> usize {
-        self.width as usize * self.height as usize * 3
+    /// Pixels in the image.
+    fn pixel_count(&self) -> usize {
+        self.width as usize * self.height as usize
     }
 
-    /// The layers in [`LAYER_NAMES`] order.
-    pub fn layers(&self) -> [&[f32]; 4] {
+    /// The layers in [`LAYERS`] order.
+    pub fn layers(&self) -> [&[f32]; 5] {
         [
             &self.total,
             &self.surface,
             &self.single_scatter,
             &self.stderr,
+            &self.alpha,
         ]
     }
 
-    fn layers_mut(&mut self) -> [&mut Vec<f32>; 4] {
+    fn layers_mut(&mut self) -> [&mut Vec<f32>; 5] {
         [
             &mut self.total,
             &mut self.surface,
             &mut self.single_scatter,
             &mut self.stderr,
+            &mut self.alpha,
         ]
     }
 
     /// Copies a rendered tile (in film coordinates) into its place. The tile is checked first
     /// (it may come from the network): it must be non-empty, lie inside the image's window, and
-    /// carry exactly three samples per pixel in each layer; otherwise the image is left
+    /// carry exactly its layer's channels per pixel in each layer; otherwise the image is left
     /// unchanged.
     pub fn insert_tile(&mut self, tile: &TilePixels) -> Result<(), ImageError> {
         self.check_buffers()?;
@@ -233,11 +286,11 @@ impl Image {
         }
         // The tile's origin in the image's own pixels.
         let (left, top) = ((rect.x - window.x) as usize, (rect.y - window.y) as usize);
-        let expected = rect.pixel_count() * 3;
-        for (layer, samples) in LAYER_NAMES.iter().zip(tile.layers()) {
+        for (layer, samples) in LAYERS.iter().zip(tile.layers()) {
+            let expected = rect.pixel_count() * layer.channels;
             if samples.len() != expected {
                 return Err(ImageError::BufferLength {
-                    layer,
+                    layer: layer.name,
                     expected,
                     actual: samples.len(),
                 });
@@ -245,10 +298,10 @@ impl Image {
         }
 
         let image_width = self.width as usize;
-        let row_len = rect.width as usize * 3;
-        for (dst, src) in self.layers_mut().into_iter().zip(tile.layers()) {
+        for ((layer, dst), src) in LAYERS.iter().zip(self.layers_mut()).zip(tile.layers()) {
+            let row_len = rect.width as usize * layer.channels;
             for row in 0..rect.height as usize {
-                let start = ((top + row) * image_width + left) * 3;
+                let start = ((top + row) * image_width + left) * layer.channels;
                 dst[start..start + row_len].copy_from_slice(&src[row * row_len..][..row_len]);
             }
         }
@@ -258,26 +311,26 @@ impl Image {
     /// The number of pixels with a NaN or infinite sample in any layer.
     #[cfg(test)]
     pub fn non_finite_count(&self) -> usize {
-        let pixels = self.width as usize * self.height as usize;
-        (0..pixels)
+        (0..self.pixel_count())
             .filter(|&p| {
-                self.layers().iter().any(|layer| {
+                LAYERS.iter().zip(self.layers()).any(|(kind, layer)| {
+                    let n = kind.channels;
                     layer
-                        .get(p * 3..p * 3 + 3)
+                        .get(p * n..p * n + n)
                         .is_some_and(|s| s.iter().any(|v| !v.is_finite()))
                 })
             })
             .count()
     }
 
-    /// Checks that every layer holds exactly three samples per pixel (the fields are public, so
+    /// Checks that every layer holds exactly its channels per pixel (the fields are public, so
     /// a caller may have changed one).
     fn check_buffers(&self) -> Result<(), ImageError> {
-        let expected = self.sample_count();
-        for (layer, samples) in LAYER_NAMES.iter().zip(self.layers()) {
+        for (layer, samples) in LAYERS.iter().zip(self.layers()) {
+            let expected = self.pixel_count() * layer.channels;
             if samples.len() != expected {
                 return Err(ImageError::BufferLength {
-                    layer,
+                    layer: layer.name,
                     expected,
                     actual: samples.len(),
                 });
@@ -321,25 +374,45 @@ impl Image {
         };
 
         // The data window starts at the image's place in the film (check_writable: both fit i32).
+        let standard = &self.standard;
         let mut attributes = LayerAttributes {
             layer_position: Vec2(self.placement.x as i32, self.placement.y as i32),
+            software_name: standard.software.as_deref().map(text),
+            world_to_camera: standard.world_to_camera,
+            world_to_normalized_device: standard.world_to_ndc,
             ..LayerAttributes::default()
         };
         for (name, value) in &self.attributes {
+            if name == RENDER_TIME {
+                return Err(ImageError::Attribute {
+                    name: name.clone(),
+                    problem: "is written from `standard.render_time`".into(),
+                });
+            }
             let (name, value) = exr_attribute(name, value)?;
             attributes.other.insert(name, value);
         }
+        if let Some(seconds) = standard.render_time {
+            attributes.other.insert(
+                text(RENDER_TIME),
+                exr::prelude::AttributeValue::F32(seconds),
+            );
+        }
 
-        // One plane per channel, taken out of the interleaved RGB layers.
-        let pixels = self.width as usize * self.height as usize;
+        // One plane per channel, taken out of the interleaved layers.
+        let pixels = self.pixel_count();
         let mut channels = smallvec_of_channels();
-        for (prefix, layer) in EXR_PREFIXES.iter().zip(self.layers()) {
-            for (c, name) in RGB.iter().enumerate() {
-                let plane: Vec<f32> = (0..pixels).map(|p| layer[p * 3 + c]).collect();
-                channels.push(AnyChannel::new(
-                    format!("{prefix}{name}").as_str(),
-                    FlatSamples::F32(plane),
-                ));
+        for (names, layer) in EXR_CHANNELS.iter().zip(self.layers()) {
+            let n = names.len();
+            for (c, name) in names.iter().enumerate() {
+                let plane = (0..pixels).map(|p| layer[p * n + c]);
+                let samples = match self.precision {
+                    Precision::Float => FlatSamples::F32(plane.collect()),
+                    Precision::Half => {
+                        FlatSamples::F16(plane.map(exr::prelude::f16::from_f32).collect())
+                    }
+                };
+                channels.push(AnyChannel::new(*name, samples));
             }
         }
 
@@ -385,9 +458,10 @@ impl Image {
     }
 
     /// Reads an EXR file written by [`Image::write_exr`] (or any one-part EXR with the same
-    /// twelve float channels; without the `stderr` ones, as spindle wrote before that layer,
-    /// `stderr` is 0), with its text header attributes and its place in the film (the data
-    /// window inside the display window).
+    /// float channels; without the `stderr` ones, as spindle wrote before that layer, `stderr`
+    /// is 0; without `A`, as spindle wrote before alpha, `alpha` is 1, opaque, as viewers show
+    /// an image without alpha), with its text header attributes and its place in the film (the
+    /// data window inside the display window).
     pub fn from_exr_bytes(bytes: &[u8]) -> Result<Image, ImageError> {
         read_exr_from(bytes, "(in memory)")
     }
@@ -525,11 +599,14 @@ fn exr_attribute(
             "the name is a standard OpenEXR attribute; choose another (e.g. prefix it `spindle.`)",
         ));
     }
-    // EXR text is a byte string; we store UTF-8, as OpenEXR tools commonly expect, so any
-    // value (a file path, a warning with an η in it) can be recorded.
-    let text = |s: &str| exr::prelude::Text::from_slice_unchecked(s.as_bytes());
     let (name_text, value_text) = (text(name), text(value));
     Ok((name_text, exr::prelude::AttributeValue::Text(value_text)))
+}
+
+/// EXR text of a string. EXR text is a byte string; we store UTF-8, as OpenEXR tools commonly
+/// expect, so any value (a file path, a warning with an η in it) can be recorded.
+fn text(s: &str) -> exr::prelude::Text {
+    exr::prelude::Text::from_slice_unchecked(s.as_bytes())
 }
 
 /// Rewrites the header of a one-part EXR file with its attributes sorted by name. The EXR
@@ -634,29 +711,39 @@ fn read_exr_from(bytes: &[u8], path: &str) -> Result<Image, ImageError> {
     })?;
     let pixels = width * height;
 
-    for (prefix, layer_name) in EXR_PREFIXES.iter().zip(LAYER_NAMES) {
-        for (c, name) in RGB.iter().enumerate() {
-            let full = format!("{prefix}{name}");
-            let found = layer.channel_data.list.iter().find(|ch| ch.name.eq(&full));
-            // Files written before the `stderr` layer existed have none: it reads as 0.
-            if found.is_none() && layer_name == "stderr" {
-                continue;
-            }
-            let channel = found.ok_or_else(|| exr_error(format!("no channel `{full}`")))?;
-            let exr::prelude::FlatSamples::F32(samples) = &channel.sample_data else {
-                return Err(exr_error(format!("channel `{full}` is not 32-bit float")));
+    let mut precision = Precision::Float;
+    for (names, dst) in EXR_CHANNELS.iter().zip(image.layers_mut()) {
+        let n = names.len();
+        for (c, name) in names.iter().enumerate() {
+            let found = layer.channel_data.list.iter().find(|ch| ch.name.eq(name));
+            let channel = match found {
+                Some(channel) => channel,
+                // Files written before the `stderr` layer existed have none: it reads as 0.
+                None if name.starts_with("stderr.") => continue,
+                // Files written before alpha have none: opaque.
+                None if *name == "A" => {
+                    dst.fill(1.0);
+                    continue;
+                }
+                None => return Err(exr_error(format!("no channel `{name}`"))),
+            };
+            let samples: Vec<f32> = match &channel.sample_data {
+                exr::prelude::FlatSamples::F32(samples) => samples.clone(),
+                exr::prelude::FlatSamples::F16(samples) => {
+                    if *name == "R" {
+                        precision = Precision::Half;
+                    }
+                    samples.iter().map(|v| v.to_f32()).collect()
+                }
+                exr::prelude::FlatSamples::U32(_) => {
+                    return Err(exr_error(format!("channel `{name}` is not floating point")));
+                }
             };
             if samples.len() != pixels {
-                return Err(exr_error(format!("channel `{full}` has the wrong size")));
+                return Err(exr_error(format!("channel `{name}` has the wrong size")));
             }
-            let dst = match layer_name {
-                "total" => &mut image.total,
-                "surface" => &mut image.surface,
-                "single_scatter" => &mut image.single_scatter,
-                _ => &mut image.stderr,
-            };
             for (p, v) in samples.iter().enumerate() {
-                dst[p * 3 + c] = *v;
+                dst[p * n + c] = *v;
             }
         }
     }
@@ -667,12 +754,23 @@ fn read_exr_from(bytes: &[u8], path: &str) -> Result<Image, ImageError> {
         .iter()
         .chain(layer.attributes.other.iter())
     {
-        if let AttributeValue::Text(text) = value {
-            image
-                .attributes
-                .insert(text_to_string(name), text_to_string(text));
+        match value {
+            AttributeValue::F32(seconds) if name.eq(RENDER_TIME) => {
+                image.standard.render_time = Some(*seconds);
+            }
+            AttributeValue::Text(text) => {
+                image
+                    .attributes
+                    .insert(text_to_string(name), text_to_string(text));
+            }
+            _ => {}
         }
     }
+    image.precision = precision;
+    let standard = &layer.attributes;
+    image.standard.software = standard.software_name.as_ref().map(text_to_string);
+    image.standard.world_to_camera = standard.world_to_camera;
+    image.standard.world_to_ndc = standard.world_to_normalized_device;
     Ok(image)
 }
 

@@ -4,6 +4,8 @@
 #![forbid(unsafe_code)]
 
 pub mod atomic_write;
+pub mod camera_matrices;
+pub mod header;
 pub mod image;
 pub mod noise;
 pub mod passes;

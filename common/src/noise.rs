@@ -42,11 +42,14 @@ impl NoiseSums {
         self.total_sq += other.total_sq;
     }
 
-    /// `sqrt(Σ stderr² / Σ total²)`; `None` while everything seen is black (nothing to be
-    /// relative to).
-    pub fn relative_error(&self) -> Option<f64> {
+    /// `sqrt(Σ stderr² / Σ total²)` of a render of `spp` samples per pixel; `None` — unknown —
+    /// while everything seen is black (nothing to be relative to) and at 1 spp, where no pixel
+    /// has two samples to estimate its error from (its `stderr` is 0, which is not "no error").
+    /// Every pixel takes at least `min(spp, 16)` samples (adaptive batches and progressive
+    /// passes alike), so `spp` ≥ 2 gives every pixel an estimate.
+    pub fn relative_error(&self, spp: u32) -> Option<f64> {
         let ratio = self.stderr_sq / self.total_sq;
-        (self.total_sq > 0.0 && ratio.is_finite()).then(|| ratio.sqrt())
+        (spp >= 2 && self.total_sq > 0.0 && ratio.is_finite()).then(|| ratio.sqrt())
     }
 }
 
@@ -59,19 +62,27 @@ mod tests {
     #[test]
     fn adds_up_to_the_hand_computed_ratio() {
         let mut sums = NoiseSums::of_layers(&[3.0, 4.0], &[0.3, 0.4]);
-        assert!((sums.relative_error().unwrap() - 0.1).abs() < 1e-7);
+        assert!((sums.relative_error(2).unwrap() - 0.1).abs() < 1e-7);
         sums.add(&NoiseSums::of_layers(&[0.0, 0.0, 12.0], &[0.0, 0.0, 1.2]));
         assert!((sums.total_sq - 169.0).abs() < 1e-9, "{sums:?}");
         assert!((sums.stderr_sq - 1.69).abs() < 1e-6, "{sums:?}");
-        assert!((sums.relative_error().unwrap() - 0.1).abs() < 1e-7);
+        assert!((sums.relative_error(64).unwrap() - 0.1).abs() < 1e-7);
     }
 
     #[test]
     fn black_has_no_relative_error() {
-        assert_eq!(NoiseSums::default().relative_error(), None);
+        assert_eq!(NoiseSums::default().relative_error(16), None);
         assert_eq!(
-            NoiseSums::of_layers(&[0.0; 6], &[0.0; 6]).relative_error(),
+            NoiseSums::of_layers(&[0.0; 6], &[0.0; 6]).relative_error(16),
             None
         );
+    }
+
+    /// At 1 spp the `stderr` layer is all zeros, which is no estimate: unknown, not 0.
+    #[test]
+    fn one_sample_per_pixel_has_an_unknown_relative_error() {
+        let sums = NoiseSums::of_layers(&[3.0, 4.0], &[0.0, 0.0]);
+        assert_eq!(sums.relative_error(1), None);
+        assert_eq!(sums.relative_error(2), Some(0.0));
     }
 }

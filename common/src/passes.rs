@@ -28,6 +28,8 @@ pub struct PixelSums {
     pub m2_y: f64,
     /// Samples taken (indices `0 .. taken`).
     pub taken: u32,
+    /// Of those, the samples whose camera ray hit an object (the `alpha` layer's count).
+    pub hits: u32,
     /// The pixel met `film.target_error` and takes no more samples.
     pub converged: bool,
 }
@@ -45,7 +47,7 @@ pub struct TileProgress {
 
 impl TileProgress {
     /// The canonical bytes of the state, little-endian, in field order: `pass`, `spp`, then per
-    /// pixel its fields (f64 bits, `taken` as u32, `converged` as one byte). Part of a tile
+    /// pixel its fields (f64 bits, `taken` and `hits` as u32, `converged` as one byte). Part of a tile
     /// result's hash ([`crate::protocol::pixel_hash`]), so a stored state cannot change
     /// unnoticed.
     pub fn canonical_bytes(&self, out: &mut Vec<u8>) {
@@ -64,6 +66,7 @@ impl TileProgress {
             out.extend_from_slice(&p.mean_y.to_bits().to_le_bytes());
             out.extend_from_slice(&p.m2_y.to_bits().to_le_bytes());
             out.extend_from_slice(&p.taken.to_le_bytes());
+            out.extend_from_slice(&p.hits.to_le_bytes());
             out.push(u8::from(p.converged));
         }
     }

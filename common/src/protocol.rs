@@ -309,8 +309,9 @@ pub struct JobInfo {
     pub provenance: Option<Provenance>,
     /// The image's estimated relative RMS error over the tiles done so far,
     /// `sqrt(Σ stderr²) / sqrt(Σ total²)` over their pixels and channels (the `stderr` layer
-    /// against the `total` layer; [`crate::noise::NoiseSums`]); absent until a tile that is not
-    /// black is in.
+    /// against the `total` layer; [`crate::noise::NoiseSums`]); absent — unknown — until a tile
+    /// that is not black is in, and at 1 spp, where no pixel has two samples to estimate its
+    /// error from.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub relative_error: Option<f64>,
     /// The window of the film the job renders ([`SubmitJob::crop`]); absent: the whole film
@@ -852,10 +853,10 @@ impl TileUpload {
     /// cost in memory is set by the tile's size, not by the body.
     pub fn max_packed_bytes(rect: TileRect) -> usize {
         const VALUE: usize = 9;
-        // A pixel's `PixelSums`: 14 numbers, its field names and headers (196 bytes as
+        // A pixel's `PixelSums`: 15 numbers, its field names and headers (about 205 bytes as
         // written, every number as an f64 or u64).
         const PIXEL_SUMS: usize = 256;
-        let values = rect.pixel_count() * 3 * LAYER_COUNT;
+        let values = rect.pixel_count() * crate::tile::VALUES_PER_PIXEL;
         values * VALUE + rect.pixel_count() * PIXEL_SUMS + UPLOAD_FIXED_BYTES
     }
 
@@ -864,14 +865,11 @@ impl TileUpload {
     pub fn max_json_bytes(rect: TileRect) -> usize {
         const VALUE: usize = 32;
         const PIXEL_SUMS: usize = 512;
-        let values = rect.pixel_count() * 3 * LAYER_COUNT;
+        let values = rect.pixel_count() * crate::tile::VALUES_PER_PIXEL;
         // A provenance line's characters written as `\u00XX` escapes take 6 bytes each.
         values * VALUE + rect.pixel_count() * PIXEL_SUMS + 6 * UPLOAD_FIXED_BYTES
     }
 }
-
-/// The layers of a tile ([`crate::tile::LAYER_NAMES`]).
-const LAYER_COUNT: usize = crate::tile::LAYER_NAMES.len();
 
 /// The bytes of an upload beside its pixel values: the provenance (two lists of
 /// [`crate::provenance::MAX_LINES`] lines of [`crate::provenance::MAX_LINE_BYTES`], and the
@@ -910,7 +908,7 @@ pub struct TileFailure {
 }
 
 /// The canonical bytes of a tile's pixels: the rectangle (`x, y, width, height` as u32
-/// little-endian), then each layer in [`crate::tile::LAYER_NAMES`] order as f32 little-endian
+/// little-endian), then each layer in [`crate::tile::LAYERS`] order as f32 little-endian
 /// bits, then a progressive pass's state if there is one ([`crate::passes::TileProgress::canonical_bytes`]).
 /// Statistics are not part of it.
 pub fn canonical_pixel_bytes(pixels: &TilePixels) -> Vec<u8> {
@@ -1002,6 +1000,7 @@ mod tests {
                 mean_y: long_f64(),
                 m2_y: long_f64(),
                 taken: u32::MAX,
+                hits: u32::MAX,
                 converged: true,
             })
             .collect();
@@ -1054,7 +1053,8 @@ mod tests {
     fn canonical_bytes_follow_the_documented_layout() {
         let t = tile();
         let b = canonical_pixel_bytes(&t);
-        assert_eq!(b.len(), 16 + 4 * 4 * 6);
+        // Four RGB layers of two pixels, then alpha's two values.
+        assert_eq!(b.len(), 16 + 4 * (4 * 6 + 2));
         assert_eq!(&b[0..4], &3u32.to_le_bytes());
         assert_eq!(&b[12..16], &1u32.to_le_bytes());
         assert_eq!(&b[16..20], &1.0f32.to_bits().to_le_bytes());

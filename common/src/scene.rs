@@ -149,6 +149,10 @@ pub struct Film {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schema(exclusive_minimum = 0.0, exclusive_maximum = 604800.0)]
     pub time_budget_s: Option<f64>,
+    /// Write the EXR in 16-bit half floats (half the size, about three significant digits,
+    /// values above 65504 infinite) instead of 32-bit floats. The pixels rendered are the same.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub half: bool,
 }
 
 /// Samples a pixel takes between two checks of its error under `film.target_error` (and

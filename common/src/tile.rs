@@ -51,14 +51,58 @@ impl TileRect {
     }
 }
 
+/// One image layer: its name and how many values each pixel has in it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Layer {
+    pub name: &'static str,
+    /// Values per pixel: 3 (RGB) or 1.
+    pub channels: usize,
+}
+
 /// The image layers spindle writes, in this order. `total` = `surface` + `single_scatter`;
 /// `stderr` is the standard error of each pixel's mean of `total`, estimated from its samples
-/// (0 with one sample per pixel, where it cannot be estimated).
-pub const LAYER_NAMES: [&str; 4] = ["total", "surface", "single_scatter", "stderr"];
+/// (0 with one sample per pixel, where it cannot be estimated); `alpha` is the coverage of
+/// objects against the background: the mean over the pixel's samples of whether the camera
+/// ray hits any object (1 wholly inside a silhouette, 0 where only the background is seen).
+pub const LAYERS: [Layer; 5] = [
+    Layer {
+        name: "total",
+        channels: 3,
+    },
+    Layer {
+        name: "surface",
+        channels: 3,
+    },
+    Layer {
+        name: "single_scatter",
+        channels: 3,
+    },
+    Layer {
+        name: "stderr",
+        channels: 3,
+    },
+    Layer {
+        name: "alpha",
+        channels: 1,
+    },
+];
 
-/// Rendered pixels of one rectangle: for each layer in [`LAYER_NAMES`] order, RGB triples in
-/// row-major order (`(row * width + col) * 3 + channel`). Every value is a finite f32: JSON
-/// numbers beyond f32's range (which would become ±inf) are refused when a tile is read.
+/// Values per pixel over all [`LAYERS`].
+pub const VALUES_PER_PIXEL: usize = 13;
+const _: () = {
+    let mut sum = 0;
+    let mut i = 0;
+    while i < LAYERS.len() {
+        sum += LAYERS[i].channels;
+        i += 1;
+    }
+    assert!(sum == VALUES_PER_PIXEL);
+};
+
+/// Rendered pixels of one rectangle: for each layer in [`LAYERS`] order, its values in
+/// row-major order (`(row * width + col) * channels + channel`: RGB triples, or one alpha value
+/// per pixel). Every value is a finite f32: JSON numbers beyond f32's range (which would become
+/// ±inf) are refused when a tile is read.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct TilePixels {
@@ -71,6 +115,9 @@ pub struct TilePixels {
     pub single_scatter: Vec<f32>,
     #[serde(deserialize_with = "finite_layer")]
     pub stderr: Vec<f32>,
+    /// One value per pixel (see [`LAYERS`]).
+    #[serde(deserialize_with = "finite_layer")]
+    pub alpha: Vec<f32>,
     pub stats: RenderStats,
     /// A progressive pass's result (a farm job with `film.time_budget_s`): every pixel's running
     /// sums, from which the tile's next pass continues. Absent for one-pass results; never
@@ -117,18 +164,20 @@ impl TilePixels {
             surface: vec![0.0; n],
             single_scatter: vec![0.0; n],
             stderr: vec![0.0; n],
+            alpha: vec![0.0; rect.pixel_count()],
             stats: RenderStats::default(),
             progress: None,
         }
     }
 
-    /// The layers in [`LAYER_NAMES`] order.
-    pub fn layers(&self) -> [&[f32]; 4] {
+    /// The layers in [`LAYERS`] order.
+    pub fn layers(&self) -> [&[f32]; 5] {
         [
             &self.total,
             &self.surface,
             &self.single_scatter,
             &self.stderr,
+            &self.alpha,
         ]
     }
 
@@ -149,6 +198,7 @@ impl TilePixels {
             surface: part(&self.surface, values.clone()),
             single_scatter: part(&self.single_scatter, values.clone()),
             stderr: part(&self.stderr, values),
+            alpha: part(&self.alpha, pixels.clone()),
             stats: RenderStats::default(),
             progress: self.progress.as_ref().map(|p| TileProgress {
                 pass: p.pass,
@@ -192,6 +242,7 @@ impl TilePixels {
             tile.surface.extend_from_slice(&band.surface);
             tile.single_scatter.extend_from_slice(&band.single_scatter);
             tile.stderr.extend_from_slice(&band.stderr);
+            tile.alpha.extend_from_slice(&band.alpha);
             tile.stats.add(&band.stats);
             if let (Some(all), Some(p)) = (progress.as_mut(), band.progress) {
                 all.pixels.extend(p.pixels);
@@ -363,6 +414,7 @@ mod tests {
             *v = i as f32;
         }
         tile.stderr[7] = 0.25;
+        tile.alpha[4] = 0.5;
         tile.progress = Some(TileProgress {
             pass: 2,
             spp: 32,
@@ -386,6 +438,8 @@ mod tests {
         assert_eq!(band.rect, rect.rows(1, 2));
         assert_eq!(band.total, (6..18).map(|v| v as f32).collect::<Vec<_>>());
         assert_eq!(band.progress.as_ref().unwrap().pixels[0].taken, 2);
+        // Alpha has one value per pixel: pixels 2..6 of the tile.
+        assert_eq!(band.alpha, [0.0, 0.0, 0.5, 0.0]);
         let bands = vec![tile.band(0, 1), tile.band(1, 2), tile.band(3, 2)];
         assert_eq!(TilePixels::stack(bands), tile);
         let mut one_pass = tile.clone();

@@ -158,6 +158,7 @@ mod tests {
             surface: layer(1),
             single_scatter: layer(2),
             stderr: layer(3),
+            alpha: layer(4)[..rect.pixel_count()].to_vec(),
             stats: RenderStats::default(),
             progress: None,
         }
@@ -198,6 +199,7 @@ mod tests {
             surface: &'a [f32],
             single_scatter: &'a [f32],
             stderr: &'a [f32],
+            alpha: &'a [f32],
             stats: RenderStats,
         }
         let mut total: Vec<f64> = pixels.total.iter().map(|&v| v as f64).collect();
@@ -208,6 +210,7 @@ mod tests {
             surface: &pixels.surface,
             single_scatter: &pixels.single_scatter,
             stderr: &pixels.stderr,
+            alpha: &pixels.alpha,
             stats: RenderStats::default(),
         };
         let e = decode::<TilePixels>(&encode(&wide).unwrap(), 1 << 20).unwrap_err();

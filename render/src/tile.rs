@@ -3,6 +3,10 @@
 //! Each pixel averages `film.spp` camera samples; sample `s` of pixel `(x, y)` is jittered in
 //! the pixel and driven by `Sampler::new(film.seed, x, y, s)`, so a pixel's value is the same bits
 //! whichever tile, thread or worker renders it. Pixels run in parallel with rayon.
+//!
+//! Beside the radiance each pixel keeps its coverage (the `alpha` layer): how many of its
+//! samples' camera rays hit an object (`Scene::bvh`'s first hit of the very ray the transport
+//! follows), so alpha is exact in the samples taken and travels between passes as a count.
 
 use rayon::prelude::*;
 use spindle_common::passes::PixelSums;
@@ -15,14 +19,16 @@ use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::transport::{Radiance, radiance};
 
-/// The mean radiance of one pixel over its samples, the standard error of its total, and what
-/// it cost.
+/// The mean radiance of one pixel over its samples, the standard error of its total, its
+/// coverage, and what it cost.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct PixelValue {
     pub radiance: Radiance,
     /// `sqrt(s² / n)` per channel, with `s²` the unbiased sample variance of the total over the
     /// pixel's `n` samples (Welford's running form); 0 when `n` = 1, where it is unknown.
     pub stderr: Rgb,
+    /// The share of the samples whose camera ray hit an object, in [0, 1].
+    pub alpha: f64,
     pub stats: RenderStats,
 }
 
@@ -53,6 +59,8 @@ pub struct PixelProgress {
     mean_y: f64,
     m2_y: f64,
     taken: u32,
+    /// Samples whose camera ray hit an object (≤ `taken`).
+    hits: u32,
     /// The pixel met `film.target_error` at a batch boundary.
     converged: bool,
     stats: RenderStats,
@@ -72,6 +80,7 @@ impl PixelProgress {
             mean_y: sums.mean_y,
             m2_y: sums.m2_y,
             taken: sums.taken,
+            hits: sums.hits,
             converged: sums.converged,
             stats: RenderStats::default(),
         }
@@ -87,6 +96,7 @@ impl PixelProgress {
             mean_y: self.mean_y,
             m2_y: self.m2_y,
             taken: self.taken,
+            hits: self.hits,
             converged: self.converged,
         }
     }
@@ -110,6 +120,9 @@ impl PixelProgress {
             let [u, v] = sampler.next_2d();
             let ray = scene.camera().ray(x as f64 + u, y as f64 + v);
             self.stats.camera_rays += 1;
+            if scene.bvh().closest_hit(&ray).is_some() {
+                self.hits += 1;
+            }
             let r = radiance(scene, &ray, &mut sampler, &mut self.stats);
             self.sum.surface += r.surface;
             self.sum.single_scatter += r.single_scatter;
@@ -148,6 +161,7 @@ impl PixelProgress {
                 single_scatter: self.sum.single_scatter / n,
             },
             stderr,
+            alpha: f64::from(self.hits) / n,
             stats: self.stats,
         }
     }
@@ -197,6 +211,7 @@ pub fn pixels_to_tile<'a>(
             tile.single_scatter[3 * i + c] = r.single_scatter[c] as f32;
             tile.stderr[3 * i + c] = value.stderr[c] as f32;
         }
+        tile.alpha[i] = value.alpha as f32;
         tile.stats.add(&value.stats);
     }
     tile

@@ -5,10 +5,11 @@
 //! Tiles are inserted in tile index order and the EXR writer's bytes depend only on the image,
 //! so the file does not depend on which worker rendered which tile or in what order tiles
 //! arrived. The header carries the film's settings, the summed render statistics
-//! (`spindle.stats.<counter>`) and the job's provenance as its workers reported it (renderer,
-//! objects, triangles, lights, warnings, the single-scattering plan:
-//! `Provenance::header_attributes`), the same names and values `spindle render --workers 0`
-//! writes.
+//! (`spindle.stats.<counter>`), the job's provenance as its workers reported it (renderer,
+//! objects, triangles, lights, warnings, the single-scattering plan), the camera matrices,
+//! `software` and `renderTime` (the job's seconds from its first lease): the same names and
+//! values `spindle render --workers 0` writes, through the same function,
+//! `spindle_common::header::describe`.
 //!
 //! Assembly never fails a job whose tiles are all in: a stored tile found damaged (missing,
 //! truncated, altered) goes back to the queue to be rendered again, and any other error (I/O,
@@ -24,8 +25,11 @@ use spindle_common::protocol::{JobSpec, PassInfo};
 use spindle_common::provenance::Provenance;
 use spindle_common::stats::RenderStats;
 
+use spindle_common::header::RenderFacts;
+
 use crate::AppState;
 use crate::error::Error;
+use crate::jobs::now_ms;
 use crate::passes::{PASS_END_ATTEMPTS, PassEnd};
 use crate::tile_store::{ReadError, TileStore};
 
@@ -70,45 +74,16 @@ pub fn frame(
     Ok((image, damaged))
 }
 
-/// The EXR header attributes of a finished job.
-pub fn attributes(
-    spec: &JobSpec,
-    stats: &RenderStats,
-    provenance: Option<&Provenance>,
-    passes: Option<&PassInfo>,
-) -> anyhow::Result<Vec<(String, String)>> {
-    let film = &spec.scene.film;
-    let window = spec.window();
-    let mut attributes = vec![
-        ("spindle.spp".to_string(), film.spp.to_string()),
-        ("spindle.seed".to_string(), film.seed.to_string()),
-        (
-            "spindle.region".to_string(),
-            format!(
-                "{},{},{},{}",
-                window.x, window.y, window.width, window.height
-            ),
-        ),
-        (
-            "spindle.integrator".to_string(),
-            serde_json::to_string(&spec.scene.integrator)?,
-        ),
-    ];
-    for (name, value) in stats.entries() {
-        attributes.push((format!("spindle.stats.{name}"), value.to_string()));
-    }
-    if let Some(provenance) = provenance {
-        attributes.extend(provenance.header_attributes());
-    }
-    // A job with a time budget: how many passes reached `spindle.spp` (the job's spp by then).
-    if let Some(passes) = passes {
-        attributes.push(("spindle.passes".to_string(), passes.pass.to_string()));
-        attributes.push((
-            "spindle.time_budget_s".to_string(),
-            passes.budget_s.to_string(),
-        ));
-    }
-    Ok(attributes)
+/// What the header of a finished job's EXR says beyond its spec.
+pub struct JobFacts<'a> {
+    /// The summed render statistics of its tiles.
+    pub stats: &'a RenderStats,
+    /// The job's provenance, as its workers reported it.
+    pub provenance: Option<&'a Provenance>,
+    /// A job with a time budget: its last pass (whose cap is the spec's `spp` by then).
+    pub passes: Option<&'a PassInfo>,
+    /// Seconds from the job's first lease to its assembly.
+    pub render_seconds: Option<f64>,
 }
 
 /// Writes the final EXR of a job whose tiles are all in, atomically; returns the SHA-256 of
@@ -118,9 +93,7 @@ pub fn write_final(
     job: u64,
     spec: &JobSpec,
     tiles: &[(u32, String)],
-    stats: &RenderStats,
-    provenance: Option<&Provenance>,
-    passes: Option<&PassInfo>,
+    facts: &JobFacts,
 ) -> Result<String, AssembleError> {
     let expected = spec.tiles().len();
     if tiles.len() != expected {
@@ -131,9 +104,19 @@ pub fn write_final(
     if !damaged.is_empty() {
         return Err(AssembleError::Damaged(damaged));
     }
-    image
-        .attributes
-        .extend(attributes(spec, stats, provenance, passes)?);
+    spindle_common::header::describe(
+        &mut image,
+        &RenderFacts {
+            scene: &spec.scene,
+            window: spec.window(),
+            stats: facts.stats,
+            provenance: facts.provenance,
+            passes: facts.passes.map(|p| (p.pass, p.budget_s)),
+            render_seconds: facts.render_seconds,
+            scene_file: None,
+            workers: None,
+        },
+    );
     let bytes = image.to_exr_bytes().map_err(anyhow::Error::from)?;
     std::fs::create_dir_all(store.job_dir(job)).map_err(anyhow::Error::from)?;
     spindle_common::atomic_write::write(store.image_path(job), &bytes)
@@ -206,29 +189,35 @@ pub(crate) async fn finish(state: AppState, id: u64) {
                     .filter(|job| !job.state.is_finished())
                     .map(|job| {
                         let passes = job.passes.as_ref().map(|p| p.info(job.spec.scene.film.spp));
-                        (job.spec.clone(), job.stats, job.provenance.clone(), passes)
+                        let seconds = job.info(now_ms(), 0, 0).elapsed_s;
+                        (
+                            job.spec.clone(),
+                            job.stats,
+                            job.provenance.clone(),
+                            passes,
+                            seconds,
+                        )
                     })
-                    .and_then(|(spec, stats, provenance, passes)| {
-                        Some((spec, stats, provenance, passes, ledger.done_tiles(id).ok()?))
+                    .and_then(|(spec, stats, provenance, passes, seconds)| {
+                        let tiles = ledger.done_tiles(id).ok()?;
+                        Some((spec, stats, provenance, passes, seconds, tiles))
                     }))
             })
             .await
             .ok()
             .flatten();
-        let Some((spec, stats, provenance, passes, tiles)) = prepared else {
+        let Some((spec, stats, provenance, passes, seconds, tiles)) = prepared else {
             return; // Deleted or cancelled meanwhile.
         };
         let store = state.tile_store().clone();
         let result = tokio::task::spawn_blocking(move || {
-            write_final(
-                &store,
-                id,
-                &spec,
-                &tiles,
-                &stats,
-                provenance.as_deref(),
-                passes.as_ref(),
-            )
+            let facts = JobFacts {
+                stats: &stats,
+                provenance: provenance.as_deref(),
+                passes: passes.as_ref(),
+                render_seconds: Some(seconds),
+            };
+            write_final(&store, id, &spec, &tiles, &facts)
         })
         .await
         .unwrap_or_else(|e| Err(AssembleError::Transient(e.into())));

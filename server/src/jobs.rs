@@ -314,7 +314,7 @@ impl Job {
             workers_eligible,
             stats: self.stats,
             provenance: self.provenance.as_deref().cloned(),
-            relative_error: self.noise.relative_error(),
+            relative_error: self.noise.relative_error(self.spec.scene.film.spp),
             crop: self.spec.crop,
             passes: self
                 .passes

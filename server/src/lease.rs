@@ -439,14 +439,16 @@ impl Ledger {
                 upload.pixels.rect
             )));
         }
-        let samples = expected.pixel_count() * 3;
-        for (name, layer) in spindle_common::tile::LAYER_NAMES
+        for (kind, layer) in spindle_common::tile::LAYERS
             .iter()
             .zip(upload.pixels.layers())
         {
+            let samples = expected.pixel_count() * kind.channels;
             if layer.len() != samples {
                 return Err(Error::BadRequest(format!(
-                    "pixels.{name}: expected {samples} values (3 per pixel), got {}",
+                    "pixels.{}: expected {samples} values ({} per pixel), got {}",
+                    kind.name,
+                    kind.channels,
                     layer.len()
                 )));
             }

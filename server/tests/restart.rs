@@ -115,7 +115,11 @@ async fn a_restarted_coordinator_resumes_without_losing_or_doubling_tiles() {
             "",
         )
         .await;
-    assert_eq!(exr, reference, "same bytes as without the restart");
+    assert_eq!(
+        timeless(&exr),
+        timeless(&reference),
+        "the same image and header as without the restart"
+    );
 
     // A second restart after completion keeps the finished job and its image.
     drop(c);
@@ -130,7 +134,7 @@ async fn a_restarted_coordinator_resumes_without_losing_or_doubling_tiles() {
         )
         .await;
     assert_eq!(status, StatusCode::OK);
-    assert_eq!(again, reference);
+    assert_eq!(again, exr, "the same file");
 }
 
 #[tokio::test]

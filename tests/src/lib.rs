@@ -622,18 +622,23 @@ pub fn reference_image(scene: &Value, assets: &Assets) -> Result<Image> {
     Ok(image)
 }
 
-/// Panics unless every layer of `a` and `b` is the same bits, naming the first difference.
+/// Panics unless every layer of `a` and `b` (alpha and `stderr` too) is the same bits, naming
+/// the first difference. Header attributes are not compared: `renderTime` differs run to run.
 pub fn assert_bit_identical(a: &Image, b: &Image) {
     assert_eq!(
         (a.width, a.height, a.placement),
         (b.width, b.height, b.placement),
         "image sizes or places in the film differ"
     );
-    let names = ["total", "surface", "single_scatter"];
-    for ((name, la), lb) in names.iter().zip(a.layers()).zip(b.layers()) {
+    for ((kind, la), lb) in spindle_common::tile::LAYERS
+        .iter()
+        .zip(a.layers())
+        .zip(b.layers())
+    {
+        let name = kind.name;
         assert_eq!(la.len(), lb.len(), "layer {name} lengths differ");
         if let Some(i) = (0..la.len()).find(|&i| la[i].to_bits() != lb[i].to_bits()) {
-            let (px, ch) = (i / 3, i % 3);
+            let (px, ch) = (i / kind.channels, i % kind.channels);
             panic!(
                 "layer {name} differs at pixel ({}, {}) channel {ch}: {} vs {}",
                 px as u32 % a.width,

@@ -550,12 +550,10 @@ async fn heartbeat_loop(
 /// protocol carry finite values only), if any.
 fn first_non_finite(pixels: &TilePixels) -> Option<String> {
     let rect = pixels.rect;
-    for (name, layer) in spindle_common::tile::LAYER_NAMES
-        .iter()
-        .zip(pixels.layers())
-    {
+    for (kind, layer) in spindle_common::tile::LAYERS.iter().zip(pixels.layers()) {
         if let Some(i) = layer.iter().position(|v| !v.is_finite()) {
-            let (pixel, channel) = (i / 3, i % 3);
+            let name = kind.name;
+            let (pixel, channel) = (i / kind.channels, i % kind.channels);
             let x = rect.x as usize + pixel % rect.width as usize;
             let y = rect.y as usize + pixel / rect.width as usize;
             return Some(format!(

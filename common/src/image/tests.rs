@@ -10,10 +10,11 @@ fn value(layer: usize, x: u32, y: u32, c: usize) -> f32 {
 fn patterned(width: u32, height: u32) -> Image {
     let mut image = Image::new(width, height);
     for (l, layer) in image.layers_mut().into_iter().enumerate() {
+        let n = LAYERS[l].channels;
         for y in 0..height {
             for x in 0..width {
-                for c in 0..3 {
-                    layer[((y * width + x) * 3) as usize + c] = value(l, x, y, c);
+                for c in 0..n {
+                    layer[(y * width + x) as usize * n + c] = value(l, x, y, c);
                 }
             }
         }
@@ -28,14 +29,16 @@ fn tile_of(rect: TileRect) -> TilePixels {
         &mut tile.surface,
         &mut tile.single_scatter,
         &mut tile.stderr,
+        &mut tile.alpha,
     ]
     .into_iter()
     .enumerate()
     {
+        let n = LAYERS[l].channels;
         for row in 0..rect.height {
             for col in 0..rect.width {
-                for c in 0..3 {
-                    layer[((row * rect.width + col) * 3) as usize + c] =
+                for c in 0..n {
+                    layer[(row * rect.width + col) as usize * n + c] =
                         value(l, rect.x + col, rect.y + row, c);
                 }
             }
@@ -59,13 +62,14 @@ fn a_tile_lands_where_its_rectangle_says() {
     };
     image.insert_tile(&tile_of(rect)).expect("tile fits");
     for (l, layer) in image.layers().into_iter().enumerate() {
+        let n = LAYERS[l].channels;
         for y in 0..5 {
             for x in 0..7 {
                 let inside = (2..5).contains(&x) && (1..3).contains(&y);
-                for c in 0..3 {
+                for c in 0..n {
                     let expected = if inside { value(l, x, y, c) } else { 0.0 };
                     assert_eq!(
-                        layer[((y * 7 + x) * 3) as usize + c],
+                        layer[(y * 7 + x) as usize * n + c],
                         expected,
                         "layer {l} ({x},{y}) c{c}"
                     );
@@ -117,16 +121,19 @@ fn bad_tiles_are_rejected_and_leave_the_image_unchanged() {
     assert!(matches!(err, ImageError::EmptyTile { .. }), "{err}");
 
     // Wrong buffer lengths, one layer at a time.
-    for (layer, layer_name) in LAYER_NAMES.into_iter().enumerate() {
+    for (layer, kind) in LAYERS.into_iter().enumerate() {
+        // 4 × 3 pixels.
+        let right = 12 * kind.channels as i64;
         for delta in [-3i64, -1, 1, 3] {
             let mut tile = TilePixels::black(rect(4, 2, 4, 3));
             let buffer = match layer {
                 0 => &mut tile.total,
                 1 => &mut tile.surface,
                 2 => &mut tile.single_scatter,
-                _ => &mut tile.stderr,
+                3 => &mut tile.stderr,
+                _ => &mut tile.alpha,
             };
-            buffer.resize((36 + delta) as usize, 0.0);
+            buffer.resize((right + delta) as usize, 0.0);
             let err = image.insert_tile(&tile).unwrap_err();
             let ImageError::BufferLength {
                 layer: name,
@@ -138,7 +145,7 @@ fn bad_tiles_are_rejected_and_leave_the_image_unchanged() {
             };
             assert_eq!(
                 (name, expected, actual),
-                (layer_name, 36, (36 + delta) as usize)
+                (kind.name, right as usize, (right + delta) as usize)
             );
         }
     }
@@ -183,11 +190,11 @@ fn exr_round_trip_is_bit_exact_with_attributes() {
     image.write_exr(&path).expect("written");
     let back = read_exr(&path).expect("read");
     assert_eq!((back.width, back.height), (19, 11));
-    for (name, (a, b)) in LAYER_NAMES
+    for (kind, (a, b)) in LAYERS
         .iter()
         .zip(image.layers().into_iter().zip(back.layers()))
     {
-        assert_eq!(bits(a), bits(b), "layer {name}");
+        assert_eq!(bits(a), bits(b), "layer {}", kind.name);
     }
     assert_eq!(back.attributes, image.attributes);
     assert_eq!(back.non_finite_count(), 2);
@@ -215,7 +222,7 @@ fn the_same_image_always_gives_the_same_bytes() {
     assert!(std::fs::read(&path).unwrap() == first);
     let png = image.to_png_preview_bytes().unwrap();
     assert!(image.to_png_preview_bytes().unwrap() == png);
-    // And the file really is a one-part scanline ZIP file with the nine channels.
+    // And the file really is a one-part scanline ZIP file with the thirteen channels.
     let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(&first), true).unwrap();
     assert_eq!(meta.headers.len(), 1);
     let header = &meta.headers[0];
@@ -230,6 +237,7 @@ fn the_same_image_always_gives_the_same_bytes() {
     assert_eq!(
         names,
         [
+            "A",
             "B",
             "G",
             "R",
@@ -400,10 +408,10 @@ fn non_finite_pixels_are_counted_once_each() {
     assert_eq!(image.non_finite_count(), 3);
 }
 
-/// An EXR written before the `stderr` layer existed (nine channels) still reads, with `stderr`
-/// 0 and the other layers bit for bit.
+/// An EXR written before the `stderr` layer and alpha existed (nine channels) still reads, with
+/// `stderr` 0, alpha 1 (opaque) and the other layers bit for bit.
 #[test]
-fn files_without_the_stderr_layer_read_with_stderr_zero() {
+fn files_without_the_stderr_layer_or_alpha_read_with_stderr_zero_and_alpha_one() {
     use exr::prelude::{ReadChannels, ReadLayers, WritableImage};
     let image = patterned(7, 5);
     let bytes = image.to_exr_bytes().unwrap();
@@ -418,7 +426,7 @@ fn files_without_the_stderr_layer_read_with_stderr_zero() {
     file.layer_data
         .channel_data
         .list
-        .retain(|c| !c.name.to_string().starts_with("stderr."));
+        .retain(|c| !c.name.to_string().starts_with("stderr.") && !c.name.eq("A"));
     assert_eq!(file.layer_data.channel_data.list.len(), 9);
     let mut old = Vec::new();
     file.write()
@@ -426,6 +434,7 @@ fn files_without_the_stderr_layer_read_with_stderr_zero() {
         .unwrap();
     let back = Image::from_exr_bytes(&old).unwrap();
     assert!(back.stderr.iter().all(|&v| v == 0.0));
+    assert_eq!(back.alpha, vec![1.0; 7 * 5]);
     assert_eq!(
         (back.total, back.surface, back.single_scatter),
         (image.total, image.surface, image.single_scatter)
@@ -476,11 +485,12 @@ fn a_window_takes_tiles_in_film_coordinates_and_refuses_the_rest() {
         image.insert_tile(&tile_of(r)).expect("tile fits");
     }
     for (l, layer) in image.layers().into_iter().enumerate() {
+        let n = LAYERS[l].channels;
         for row in 0..4 {
             for col in 0..8 {
-                for c in 0..3 {
+                for c in 0..n {
                     assert_eq!(
-                        layer[((row * 8 + col) * 3) as usize + c],
+                        layer[(row * 8 + col) as usize * n + c],
                         value(l, 5 + col, 3 + row, c),
                         "layer {l} film pixel ({}, {}) c{c}",
                         5 + col,
@@ -576,5 +586,49 @@ fn a_crop_is_the_data_window_inside_the_display_window_and_round_trips() {
     assert_eq!(
         Image::from_exr_bytes(&bytes).unwrap().placement,
         full.placement
+    );
+}
+
+/// `Precision::Half` writes every channel as a half float: each value reads back as the
+/// nearest half (1/3 → 0.33325195, 65504 the largest finite, 1e5 infinite; exact halves
+/// unchanged), and the file says it is half.
+#[test]
+fn half_precision_writes_half_floats_that_read_back_rounded() {
+    let mut image = patterned(5, 3);
+    image.total[0] = 1.0 / 3.0;
+    image.total[1] = 65504.0;
+    image.total[2] = 1.0e5;
+    image.alpha[0] = 0.5;
+    image.precision = Precision::Half;
+    let bytes = image.to_exr_bytes().unwrap();
+    let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(&bytes), true).unwrap();
+    assert!(
+        meta.headers[0]
+            .channels
+            .list
+            .iter()
+            .all(|c| c.sample_type == exr::prelude::SampleType::F16)
+    );
+    let float = Image {
+        precision: Precision::Float,
+        ..image.clone()
+    };
+    assert!(bytes.len() < float.to_exr_bytes().unwrap().len());
+    let back = Image::from_exr_bytes(&bytes).unwrap();
+    assert_eq!(back.precision, Precision::Half);
+    assert_eq!(back.total[0], 0.333_251_95);
+    assert_eq!(back.total[1], 65504.0);
+    assert_eq!(back.total[2], f32::INFINITY);
+    assert_eq!(back.alpha[0], 0.5);
+    // Every other value is the half nearest to it (the `half` crate's rounding).
+    for (a, b) in image.surface.iter().zip(&back.surface) {
+        assert_eq!(*b, exr::prelude::f16::from_f32(*a).to_f32());
+    }
+    assert!(image.surface.iter().zip(&back.surface).any(|(a, b)| a != b));
+    assert_eq!(
+        Image::from_exr_bytes(&float.to_exr_bytes().unwrap())
+            .unwrap()
+            .precision,
+        Precision::Float
     );
 }

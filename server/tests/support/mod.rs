@@ -327,12 +327,14 @@ pub fn fake_tile(rect: TileRect, index: u32) -> TilePixels {
         &mut pixels.surface,
         &mut pixels.single_scatter,
         &mut pixels.stderr,
+        &mut pixels.alpha,
     ]
     .into_iter()
     .enumerate()
     {
+        let channels = spindle_common::tile::LAYERS[layer].channels;
         for (i, v) in buffer.iter_mut().enumerate() {
-            *v = tile_colour(index, layer, i % 3);
+            *v = tile_colour(index, layer, i % channels);
         }
     }
     pixels.stats = RenderStats {
@@ -341,6 +343,18 @@ pub fn fake_tile(rect: TileRect, index: u32) -> TilePixels {
         ..RenderStats::default()
     };
     pixels
+}
+
+/// An EXR's image without its `renderTime`, the one header value that differs from run to
+/// run: what two assemblies of the same tiles must agree on, pixels and header alike.
+pub fn timeless(exr: &[u8]) -> spindle_common::image::Image {
+    let mut image = spindle_common::image::Image::from_exr_bytes(exr).unwrap();
+    assert!(
+        image.standard.render_time.is_some(),
+        "renderTime is written"
+    );
+    image.standard.render_time = None;
+    image
 }
 
 /// The upload of a lease's fake tile.
