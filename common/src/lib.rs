@@ -17,4 +17,5 @@ pub mod scene_override;
 pub mod stats;
 pub mod tile;
 pub mod tile_encoding;
+pub mod transform;
 pub mod validate;

@@ -12,6 +12,7 @@ use crate::scene::{
     Camera, Film, Integrator, Light, Material, Medium, Object, Phase, Rgb, SceneDescription, Shape,
     SingleScatter, Transform, Vec3, Waves,
 };
+use crate::transform::Affine;
 
 /// The largest image side accepted, in pixels (a sanity cap: 16384² pixels of three RGB f32
 /// layers is already 9 GiB).
@@ -766,6 +767,74 @@ pub fn count_obj_triangles(bytes: &[u8]) -> Result<u64, String> {
         return Err("the file has no faces (no `f` line of three or more corners)".into());
     }
     Ok(triangles)
+}
+
+/// Whether a vertex placed in the world is within the scene's extent: every coordinate finite
+/// and within ±[`MAX_COORDINATE`]. The one rule for placed vertices, of the renderer (every
+/// shape, after its transform) and of the coordinator (OBJ files, [`check_obj_placement`]).
+pub fn check_in_extent(p: Vec3) -> Result<(), String> {
+    if p.iter().all(|x| x.is_finite() && x.abs() <= MAX_COORDINATE) {
+        Ok(())
+    } else {
+        Err(format!(
+            "places a vertex at {p:?}, outside the scene's extent of ±{MAX_COORDINATE:e} per \
+             coordinate (scenes/README.md)"
+        ))
+    }
+}
+
+/// The vertices (`v` lines) of an OBJ file that parse as three numbers, with their line
+/// numbers; [`count_obj_triangles`] refuses a file with any other.
+fn obj_vertices(bytes: &[u8]) -> impl Iterator<Item = (usize, Vec3)> + '_ {
+    bytes
+        .split(|&b| b == b'\n')
+        .enumerate()
+        .filter_map(|(n, line)| {
+            let mut tokens = line
+                .split(|b| b.is_ascii_whitespace())
+                .filter(|t| !t.is_empty());
+            if tokens.next() != Some(b"v") {
+                return None;
+            }
+            let mut p = [0.0; 3];
+            for x in &mut p {
+                *x = std::str::from_utf8(tokens.next()?).ok()?.parse().ok()?;
+            }
+            Some((n + 1, p))
+        })
+}
+
+/// The largest distance of an OBJ file's vertices from its origin (0 without vertices): with
+/// [`surely_within_extent`], a placement that needs no vertex-by-vertex check.
+pub fn obj_radius(bytes: &[u8]) -> f64 {
+    obj_vertices(bytes)
+        .map(|(_, p)| (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt())
+        .fold(0.0, f64::max)
+}
+
+/// True when every point within `radius` of the origin, placed by `transform`, is within the
+/// scene's extent: a rotation keeps lengths, so no coordinate of `M·p` passes the largest
+/// absolute scale times `radius`, to which the translation adds. False says nothing: then
+/// [`check_obj_placement`] decides, vertex by vertex. A margin of 10⁻⁹ of the extent covers the
+/// rounding of the placement's arithmetic.
+pub fn surely_within_extent(transform: &Transform, radius: f64) -> bool {
+    let scale = transform.scale.iter().fold(0.0, |m: f64, s| m.max(s.abs()));
+    let shift = transform
+        .translate
+        .iter()
+        .fold(0.0, |m: f64, t| m.max(t.abs()));
+    scale * radius + shift <= MAX_COORDINATE * (1.0 - 1e-9)
+}
+
+/// Checks that `transform` keeps every vertex of an OBJ file within the scene's extent
+/// ([`check_in_extent`]), placing each as the renderer does ([`Affine`]); the error names the
+/// first vertex's line. Linear in the file.
+pub fn check_obj_placement(bytes: &[u8], transform: &Transform) -> Result<(), String> {
+    let placement = Affine::new(transform);
+    for (line, p) in obj_vertices(bytes) {
+        check_in_extent(placement.point(p)).map_err(|e| format!("line {line}: {e}"))?;
+    }
+    Ok(())
 }
 
 /// Triangles of an icosphere subdivided `subdivisions` times: 20·4^s, or `None` past u64.

@@ -13,7 +13,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 use spindle_common::scene as desc;
 use spindle_common::validate::{
-    MAX_COORDINATE, MAX_TRIANGLES, SceneError, count_obj_triangles, scene_triangles,
+    MAX_TRIANGLES, SceneError, check_in_extent, check_obj_placement, count_obj_triangles,
+    scene_triangles,
 };
 
 use crate::Rgb;
@@ -497,6 +498,9 @@ fn build_object(
             })?;
             let obj = parse_obj_with(bytes, crease_angle.map(f64::to_radians))
                 .map_err(|e| SceneError::new(field("shape.path"), format!("{path}: {e}")))?;
+            // The coordinator's check at submission, so a worker refuses nothing it admitted.
+            check_obj_placement(bytes, &object.transform)
+                .map_err(|e| SceneError::new(field("transform"), format!("{path}: {e}")))?;
             if !obj.normals_given && crease_angle.is_none() {
                 let (sharp, shared) = obj.mesh.sharp_edges(SHARP_EDGE_DEG.to_radians());
                 if sharp as f64 >= SHARP_EDGE_SHARE * shared as f64 && sharp > 0 {
@@ -555,19 +559,9 @@ fn build_object(
         Transform::new(&object.transform).map_err(|e| nested_error(field("transform"), e))?;
     let mesh = transform.apply(&local);
     // f32 boxes and f64 solves are meaningful only within the scene extent the format allows
-    // (an OBJ's own coordinates are not seen by `validate`).
-    if let Some(p) = mesh
-        .positions()
-        .iter()
-        .find(|p| !(p.is_finite() && p.abs().max_element() <= MAX_COORDINATE))
-    {
-        return Err(SceneError::new(
-            field("transform"),
-            format!(
-                "places a vertex at {p}, outside the scene's extent of ±{MAX_COORDINATE:e} per \
-                 coordinate (scenes/README.md)"
-            ),
-        ));
+    // (an OBJ's own coordinates are not seen by `validate`; its file was checked placed, above).
+    for p in mesh.positions() {
+        check_in_extent(p.to_array()).map_err(|e| SceneError::new(field("transform"), e))?;
     }
     let material = match &object.material {
         desc::Material::Dielectric { eta, medium } => {

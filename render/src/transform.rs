@@ -1,11 +1,12 @@
 //! Object placement: scale, then rotate about x, y and z (in that order), then translate.
 //!
-//! Positions map by `M·p + t` with `M = Rz·Ry·Rx·S`; normals map by the inverse transpose of
+//! Positions map by `M·p + t` with `M = Rz·Ry·Rx·S` (`spindle_common::transform::Affine`); normals map by the inverse transpose of
 //! `M` (then renormalised), so they stay perpendicular to the surface under non-uniform scale.
 //! A mirroring transform (negative determinant) reverses the winding so it stays outward.
 
 use glam::{DMat3, DVec3};
 use spindle_common::scene as desc;
+use spindle_common::transform::Affine;
 
 use crate::mesh::TriangleMesh;
 
@@ -42,10 +43,9 @@ impl Transform {
         if !translate.is_finite() {
             return Err(TransformError::Translation(t.translate));
         }
-        let rotation = DMat3::from_rotation_z(rot.z.to_radians())
-            * DMat3::from_rotation_y(rot.y.to_radians())
-            * DMat3::from_rotation_x(rot.x.to_radians());
-        let linear = rotation * DMat3::from_diagonal(scale);
+        // The one matrix of a transform, which the coordinator's extent check uses too; glam
+        // maps points in `Affine::point`'s order, so a vertex lands on the same bits.
+        let linear = DMat3::from_cols_array_2d(&Affine::new(t).columns());
         Ok(Transform {
             linear,
             normal: linear.inverse().transpose(),

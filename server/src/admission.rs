@@ -2,6 +2,11 @@
 //! (if any) inside the film, with every asset it names given by hash and every OBJ asset
 //! already uploaded.
 //!
+//! An OBJ asset is checked as a worker's build would check it: its faces and vertices
+//! (`count_obj_triangles`), and its vertices placed by its object's transform within the scene's
+//! extent (`check_obj_placement`), so a scene no worker can build is refused here, not at the
+//! first lease.
+//!
 //! Admission reads only the request and stored assets (never a client's file paths) and
 //! answers a refusal as a 400 naming the offending field. The limit on jobs queued or running
 //! is checked when the job is stored ([`crate::jobs::Ledger::submit`]), under the same lock
@@ -12,6 +17,7 @@ use std::collections::HashMap;
 use spindle_common::passes::MAX_PASS_TILE_SIZE;
 use spindle_common::protocol::{SubmitJob, check_crop, is_hash};
 use spindle_common::scene::Shape;
+use spindle_common::validate::surely_within_extent;
 
 use crate::assets::AssetStore;
 use crate::error::Error;
@@ -60,7 +66,9 @@ pub async fn admit(submit: &SubmitJob, limits: &Limits, assets: &AssetStore) -> 
         .map_err(Error::BadRequest)
 }
 
-/// The triangle count of each OBJ shape's asset, by the shape's path.
+/// The triangle count of each OBJ shape's asset, by the shape's path, once each shape's
+/// transform is known to keep the file's vertices within the scene's extent (as a worker's
+/// build checks them, [`spindle_common::validate::check_obj_placement`]).
 async fn obj_triangles(
     submit: &SubmitJob,
     assets: &AssetStore,
@@ -73,11 +81,23 @@ async fn obj_triangles(
                     "scene.objects[{i}].shape.path: no asset given for {path:?} (add it to `assets`)"
                 )));
             };
-            let count = assets.obj_triangles(hash).await.map_err(|e| match e {
+            let in_asset = |e| match e {
                 Error::BadRequest(m) => Error::BadRequest(format!("assets.{path}: {m}")),
                 other => other,
-            })?;
-            counts.insert(path.clone(), count);
+            };
+            let summary = assets.obj_summary(hash).await.map_err(in_asset)?;
+            if !surely_within_extent(&object.transform, summary.radius) {
+                assets
+                    .check_obj_placement(hash, object.transform.clone())
+                    .await
+                    .map_err(|e| match e {
+                        Error::BadRequest(m) => {
+                            Error::BadRequest(format!("scene.objects[{i}].transform: {path}: {m}"))
+                        }
+                        other => other,
+                    })?;
+            }
+            counts.insert(path.clone(), summary.triangles);
         }
     }
     Ok(counts)

@@ -23,14 +23,24 @@ use spindle_common::protocol::is_hash;
 use tokio::io::AsyncWriteExt;
 
 use crate::error::Error;
-use crate::limits::count_obj_triangles;
+use spindle_common::scene::Transform;
+use spindle_common::validate::{check_obj_placement, count_obj_triangles, obj_radius};
 
-/// The asset directory and a cache of triangle counts.
+/// The asset directory and a cache of what admission needs of each OBJ asset.
 #[derive(Debug)]
 pub struct AssetStore {
     dir: PathBuf,
     tmp: PathBuf,
-    triangles: Mutex<HashMap<String, u64>>,
+    summaries: Mutex<HashMap<String, ObjSummary>>,
+}
+
+/// What admission needs of a stored OBJ asset, known from one linear scan of it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ObjSummary {
+    /// Its triangles ([`count_obj_triangles`]; the file passed that function's checks).
+    pub triangles: u64,
+    /// The largest distance of a vertex from the file's origin ([`obj_radius`]).
+    pub radius: f64,
 }
 
 impl AssetStore {
@@ -44,7 +54,7 @@ impl AssetStore {
         Ok(AssetStore {
             dir,
             tmp,
-            triangles: Mutex::new(HashMap::new()),
+            summaries: Mutex::new(HashMap::new()),
         })
     }
 
@@ -174,34 +184,59 @@ impl AssetStore {
         Ok((size, hasher.finalize().to_hex().to_string()))
     }
 
-    /// Triangles of a stored OBJ asset (counted once, then cached).
-    pub async fn obj_triangles(&self, hash: &str) -> Result<u64, Error> {
-        if let Some(&n) = self.lock_cache().get(hash) {
-            return Ok(n);
+    /// What admission needs of a stored OBJ asset (read once, then cached).
+    pub async fn obj_summary(&self, hash: &str) -> Result<ObjSummary, Error> {
+        if let Some(&summary) = self.lock_cache().get(hash) {
+            return Ok(summary);
         }
         let path = self.file(hash)?;
-        let count = tokio::task::spawn_blocking(move || {
-            std::fs::read(&path).map(|bytes| count_obj_triangles(&bytes))
+        let summary = tokio::task::spawn_blocking(move || {
+            std::fs::read(&path).map(|bytes| {
+                count_obj_triangles(&bytes).map(|triangles| ObjSummary {
+                    triangles,
+                    radius: obj_radius(&bytes),
+                })
+            })
         })
         .await
         .map_err(anyhow::Error::from)?;
-        let count = match count {
-            Ok(Ok(n)) => n,
-            Ok(Err(problem)) => return Err(Error::BadRequest(problem)),
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-                return Err(Error::BadRequest(format!(
-                    "asset {hash} is not uploaded (PUT /v1/assets/{hash} first)"
-                )));
-            }
-            Err(e) => return Err(e.into()),
-        };
-        self.lock_cache().insert(hash.to_string(), count);
-        Ok(count)
+        let summary = self.read_result(hash, summary)?;
+        self.lock_cache().insert(hash.to_string(), summary);
+        Ok(summary)
     }
 
-    fn lock_cache(&self) -> std::sync::MutexGuard<'_, HashMap<String, u64>> {
+    /// Checks that `transform` keeps every vertex of a stored OBJ asset within the scene's
+    /// extent, vertex by vertex ([`check_obj_placement`]; for the placements
+    /// [`ObjSummary::radius`] does not settle).
+    pub async fn check_obj_placement(&self, hash: &str, transform: Transform) -> Result<(), Error> {
+        let path = self.file(hash)?;
+        let checked = tokio::task::spawn_blocking(move || {
+            std::fs::read(&path).map(|bytes| check_obj_placement(&bytes, &transform))
+        })
+        .await
+        .map_err(anyhow::Error::from)?;
+        self.read_result(hash, checked)
+    }
+
+    /// A check of an asset's bytes: its problem a 400, a missing file a 400 saying to upload it.
+    fn read_result<T>(
+        &self,
+        hash: &str,
+        read: std::io::Result<Result<T, String>>,
+    ) -> Result<T, Error> {
+        match read {
+            Ok(Ok(value)) => Ok(value),
+            Ok(Err(problem)) => Err(Error::BadRequest(problem)),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Err(Error::BadRequest(format!(
+                "asset {hash} is not uploaded (PUT /v1/assets/{hash} first)"
+            ))),
+            Err(e) => Err(e.into()),
+        }
+    }
+
+    fn lock_cache(&self) -> std::sync::MutexGuard<'_, HashMap<String, ObjSummary>> {
         // The cache holds plain numbers; a panic elsewhere cannot leave it inconsistent.
-        self.triangles.lock().unwrap_or_else(|p| p.into_inner())
+        self.summaries.lock().unwrap_or_else(|p| p.into_inner())
     }
 }
 

@@ -10,11 +10,19 @@
 //! [`MAX_EVENT_SUBSCRIBERS`] streams are open at once, and at most
 //! [`MAX_EVENT_STREAMS_PER_ADDRESS`] from one client address, so one address cannot take every
 //! place (the dashboard of another is never locked out).
+//!
+//! A subscriber that stops reading must give its place back within seconds, not once the
+//! buffers between it and the coordinator are full: a stream's connection keeps at most
+//! [`EVENT_SEND_BUFFER`] in its send buffer and a write to it may wait at most
+//! [`EVENT_SEND_WAIT`] ([`crate::send_bound`]), past which the connection, the stream and its
+//! place end. What the client's own receive buffer holds (tens to hundreds of kilobytes) is what
+//! a non-reader takes before that; a stream with nothing to send costs its place only.
 
 use std::collections::{HashMap, VecDeque};
 use std::net::IpAddr;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
+use std::time::Duration;
 
 use spindle_common::protocol::{EventKind, FarmEvent};
 use tokio::sync::broadcast;
@@ -30,6 +38,10 @@ pub const EVENT_CHANNEL: usize = 256;
 pub const MAX_EVENT_SUBSCRIBERS: usize = 32;
 /// Event streams open at once from one client address.
 pub const MAX_EVENT_STREAMS_PER_ADDRESS: usize = 4;
+/// The longest a write to an event stream's connection may wait for its reader.
+pub const EVENT_SEND_WAIT: Duration = Duration::from_secs(2);
+/// An event stream's socket send buffer: what the coordinator holds for a slow reader.
+pub const EVENT_SEND_BUFFER: usize = 16 * 1024;
 
 /// The event log and its subscribers.
 pub struct Events {

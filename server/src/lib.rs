@@ -27,6 +27,7 @@ pub mod metrics;
 pub mod passes;
 pub mod peers;
 pub mod retention;
+pub mod send_bound;
 pub mod serve;
 pub mod throttle;
 pub mod tile_store;

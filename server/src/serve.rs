@@ -15,7 +15,8 @@
 //!   timeout on the socket, under TLS too). The kernel wakes a blocked writer only once a share
 //!   of its send buffer has been read, so a client that reads a byte now and then, or not at
 //!   all, is cut within that deadline: a minimum send rate of a send-buffer share per
-//!   deadline;
+//!   deadline. A handler whose answer never ends (the event stream) tightens this for its
+//!   connection ([`crate::send_bound`]);
 //! - a connection is answered at most [`MAX_REQUESTS_PER_CONNECTION`] requests (the last
 //!   answer says `Connection: close`), and hyper buffers at most [`MAX_READ_BUFFER`] bytes of
 //!   what a client sends ahead (pipelined requests wait there, unread, until their turn);
@@ -43,11 +44,11 @@ use hyper_util::server::graceful::GracefulShutdown;
 use hyper_util::service::TowerToHyperService;
 use tokio::net::TcpListener;
 use tokio::sync::Semaphore;
-use tokio_io_timeout::TimeoutStream;
 use tower_http::add_extension::AddExtension;
 
 use crate::config::Config;
 use crate::peers::Peers;
+use crate::send_bound::BoundedStream;
 use crate::tls;
 
 /// Descriptors kept for everything but client connections: the database and its journal, asset
@@ -167,12 +168,10 @@ pub async fn serve(
         };
         let permit = (permit, held);
         let _ = stream.set_nodelay(true);
-        let mut stream = TimeoutStream::new(stream);
-        stream.set_write_timeout(Some(header_timeout));
-        let stream = Box::pin(stream);
+        let (stream, bound) = BoundedStream::new(stream, header_timeout);
         let service = TowerToHyperService::new(CountedRequests::new(AddExtension::new(
-            router.clone(),
-            ConnectInfo::<SocketAddr>(peer),
+            AddExtension::new(router.clone(), ConnectInfo::<SocketAddr>(peer)),
+            bound,
         )));
         let Some((acceptor, _)) = &tls else {
             let connection = graceful.watch(http.serve_connection(TokioIo::new(stream), service));

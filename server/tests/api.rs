@@ -609,3 +609,41 @@ async fn an_obj_face_of_too_many_corners_is_refused_at_submission() {
         "{v}"
     );
 }
+
+/// A mesh whose own coordinates are in the scene's extent, carried past it by its object's
+/// transform, is refused at submission naming the object's transform, the file and the line
+/// (a worker's build would refuse it at the first lease); the same mesh placed within the
+/// extent, by the quick test or vertex by vertex, is admitted.
+#[tokio::test]
+async fn an_obj_its_transform_carries_past_the_extent_is_refused_at_submission() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = Coordinator::open(config(dir.path())).await;
+    let mesh = b"v 0 0 0\nv 2e5 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 3 4\n".to_vec();
+    let with = |transform: Value| {
+        let mut s = scene(8, 8);
+        s["objects"].as_array_mut().unwrap().push(json!({
+            "shape": {"type": "obj", "path": "meshes/quad.obj"},
+            "transform": transform,
+            "material": {"type": "diffuse", "reflectance": [0.5, 0.5, 0.5]}
+        }));
+        s
+    };
+    // Vertex 2 scaled 6× is at x = 1.2e6.
+    let (status, v) = submit_with_mesh(&c, &with(json!({"scale": [6, 1, 1]})), mesh.clone()).await;
+    assert_eq!(status, StatusCode::BAD_REQUEST, "{v}");
+    let error = v["error"].as_str().unwrap();
+    assert!(
+        error.starts_with(
+            "scene.objects[1].transform: meshes/quad.obj: line 2: places a vertex at \
+             [1200000.0, 0.0, 0.0], outside the scene's extent of ±1e6"
+        ),
+        "{v}"
+    );
+    // 4.5× is at 9e5: past what the radius test settles (4.5 · 2e5 + 2e5 of shift), inside
+    // vertex by vertex; 2× needs no scan.
+    let shifted = json!({"scale": [4.5, 1, 1], "translate": [0, 2e5, 0]});
+    for transform in [shifted, json!({"scale": [2, 1, 1]})] {
+        let (status, v) = submit_with_mesh(&c, &with(transform), mesh.clone()).await;
+        assert_eq!(status, StatusCode::CREATED, "{v}");
+    }
+}

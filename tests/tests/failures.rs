@@ -48,14 +48,14 @@ async fn pixels_beyond_f32_fail_the_job_with_the_reason_instead_of_looping() {
     .await;
 }
 
-/// A floor that its transform carries past the scene's extent (x up to 4·10⁶): the coordinator
-/// checks each value and each mesh file, not the transformed vertices, so it accepts the
-/// scene, but no worker can build it.
+/// A sphere light across the glass sphere's surface: every value and the mesh file are
+/// fine, so the coordinator (which builds no geometry) accepts the scene, but no worker can
+/// build it (a light must lie wholly inside or wholly outside a dielectric).
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_scene_no_worker_can_build_fails_at_once_with_the_reason() {
     bounded(async {
         let (mut scene, assets) = test_scene(16, 16, 1);
-        scene["objects"][0]["transform"] = serde_json::json!({"scale": [1e6, 1, 1]});
+        scene["lights"][1]["center"] = serde_json::json!([1.0, 1.0, 0.0]);
         let farm = Farm::of_two_workers(5.0).await?;
         let job = farm.submit(&scene, &assets, 8).await?;
         let end = farm
@@ -63,8 +63,12 @@ async fn a_scene_no_worker_can_build_fails_at_once_with_the_reason() {
             .await?;
         assert_eq!(end.state, JobState::Failed, "{end:?}");
         let error = end.error.unwrap();
+        // Confirmed by the second worker, or, when one worker has failed its share of the
+        // tiles first (the build fails in microseconds), no worker left may take a failed tile.
         assert!(
-            error.contains("the scene does not build") && error.contains("2 workers found so"),
+            error.contains("the scene does not build")
+                && (error.contains("2 workers found so")
+                    || error.contains("no other connected worker may take it")),
             "{error}"
         );
         // At once: a failure is confirmed per tile, by a second worker, and a worker is never
@@ -77,6 +81,7 @@ async fn a_scene_no_worker_can_build_fails_at_once_with_the_reason() {
         );
         for e in &end.recent_errors {
             assert!(e.message.contains("the scene does not build"), "{e:?}");
+            assert!(e.message.contains("crosses the surface"), "{e:?}");
             assert!(["w1", "w2"].contains(&e.worker.as_str()), "{e:?}");
         }
         Ok(())

@@ -870,3 +870,91 @@ fn box_values_are_checked() {
     assert!(e.path.starts_with("objects[2].shape"), "{e}");
     assert!(e.problem.contains("unknown field `height`"), "{e}");
 }
+
+const FAR_OBJ: &[u8] = b"v 0 0 0\nv 1e5 0 0\nv 0 1 0\nf 1 2 3\n";
+
+fn stretched(x: f64) -> Transform {
+    Transform {
+        scale: [x, 1.0, 1.0],
+        ..Transform::default()
+    }
+}
+
+/// A file whose own coordinates are in the extent, carried past it by its object's transform,
+/// is refused by the scan the coordinator runs at submission and the renderer at build.
+#[test]
+fn an_obj_carried_past_the_extent_by_its_transform_is_refused_naming_the_line() {
+    // Vertex 2 at x = 1e5: scaled 9× it is at 9e5, 10× at exactly 1e6 (inside), 11× past.
+    assert_eq!(check_obj_placement(FAR_OBJ, &stretched(9.0)), Ok(()));
+    assert_eq!(check_obj_placement(FAR_OBJ, &stretched(10.0)), Ok(()));
+    let e = check_obj_placement(FAR_OBJ, &stretched(11.0)).unwrap_err();
+    assert!(
+        e.starts_with("line 2: places a vertex at [1100000.0, 0.0, 0.0], outside"),
+        "{e}"
+    );
+    assert!(e.contains("±1e6"), "{e}");
+    // A rotation alone: (9e5, 9e5, 0) turned 45° about z is at y = 9e5·√2 ≈ 1.27e6.
+    let diagonal = b"v 0 0 0\nv 9e5 9e5 0\nv 0 1 0\nf 1 2 3\n";
+    let turned = Transform {
+        rotate_deg: [0.0, 0.0, 45.0],
+        ..Transform::default()
+    };
+    assert_eq!(check_obj_placement(diagonal, &Transform::default()), Ok(()));
+    let e = check_obj_placement(diagonal, &turned).unwrap_err();
+    assert!(e.starts_with("line 2: "), "{e}");
+    // A translation: z = −1 moved by −999,999.5 is at −1,000,000.5.
+    let moved = Transform {
+        translate: [0.0, 0.0, -999_999.5],
+        ..Transform::default()
+    };
+    let e = check_obj_placement(b"v 1 0 0\nv 0 0 -1\nv 0 1 0\nf 1 2 3\n", &moved).unwrap_err();
+    assert!(e.starts_with("line 2: "), "{e}");
+    // The same rule as for any placed vertex.
+    assert!(check_in_extent([0.0, -1e6, 1e6]).is_ok());
+    assert!(check_in_extent([0.0, 1e6 * (1.0 + f64::EPSILON), 0.0]).is_err());
+    assert!(check_in_extent([f64::NAN, 0.0, 0.0]).is_err());
+}
+
+/// The quick test by the file's radius never admits what the exact scan refuses, and admits
+/// the ordinary placements.
+#[test]
+fn the_quick_test_by_radius_admits_only_what_the_scan_admits() {
+    assert_eq!(obj_radius(FAR_OBJ), 1e5);
+    assert_eq!(obj_radius(b"v 3 4 0\nv 0 0 -2\n"), 5.0);
+    assert!(surely_within_extent(&stretched(9.0), 1e5));
+    assert!(!surely_within_extent(&stretched(11.0), 1e5));
+    // Every placement it admits, the scan admits: random scales, turns and shifts of a file
+    // of radius 1e5 in every direction.
+    let cube = b"v 57735.02691896258 57735.02691896258 57735.02691896258\n\
+                 v -57735.02691896258 57735.02691896258 -57735.02691896258\n\
+                 v 1e5 0 0\nv 0 -1e5 0\nf 1 2 3\nf 2 3 4\n";
+    let radius = obj_radius(cube);
+    assert!((radius - 1e5).abs() < 1e-6, "{radius}");
+    let mut state = 7u64;
+    let mut uniform = |lo: f64, hi: f64| {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        lo + (hi - lo) * (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let (mut admitted, mut scanned) = (0, 0);
+    for _ in 0..5000 {
+        let transform = Transform {
+            scale: [0; 3].map(|_| uniform(-12.0, 12.0)),
+            rotate_deg: [0; 3].map(|_| uniform(-180.0, 180.0)),
+            translate: [0; 3].map(|_| uniform(-5e5, 5e5)),
+        };
+        if surely_within_extent(&transform, radius) {
+            admitted += 1;
+            assert_eq!(
+                check_obj_placement(cube, &transform),
+                Ok(()),
+                "{transform:?}"
+            );
+        } else if check_obj_placement(cube, &transform).is_ok() {
+            scanned += 1;
+        }
+    }
+    // Both ways are taken: the quick test is not vacuous, and it leaves some to the scan.
+    assert!(admitted > 100 && scanned > 100, "{admitted} {scanned}");
+}

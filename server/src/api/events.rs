@@ -14,6 +14,8 @@ use super::Declared;
 use crate::AppState;
 use crate::auth::Role;
 use crate::error::Error;
+use crate::events::{EVENT_SEND_BUFFER, EVENT_SEND_WAIT};
+use crate::send_bound::{SendBound, Tightened};
 
 pub(super) fn routes() -> Declared {
     vec![(Role::Client, routes!(events))]
@@ -23,7 +25,8 @@ pub(super) fn routes() -> Declared {
 /// Server-Sent Events (`id:` the event id, `event:` its type, `data:` a `FarmEvent`). With
 /// `Last-Event-ID`, the events after it come first (or a `reset` when they are no longer
 /// kept, or when the id is past the newest: a coordinator counts from 1 again at every start).
-/// A client too slow to keep up is disconnected; it reconnects with its last id.
+/// A client too slow to keep up is disconnected (more than 256 events behind, or a write
+/// waiting 2 s for it to read); it reconnects with its last id.
 #[utoipa::path(get, path = "/v1/events",
     params(("Last-Event-ID" = Option<i64>, Header, nullable = false, minimum = 0, description = "the last event id received")),
     responses((status = 200, content_type = "text/event-stream", body = SseFarmEvent),
@@ -50,6 +53,13 @@ async fn events(
         ),
     };
     let sub = state.events().subscribe(last_id, peer)?;
+    // A reader that stops is cut seconds after its buffers fill, freeing its place.
+    if let Some(bound) = request.extensions().get::<SendBound>() {
+        bound.tighten(Tightened {
+            write_wait: EVENT_SEND_WAIT,
+            send_buffer: EVENT_SEND_BUFFER,
+        });
+    }
     let backlog = stream::iter(sub.backlog);
     // Ends at the first error: the subscriber lagged (dropped) or the log is gone.
     let live = stream::unfold((sub.live, sub.slot), |(mut rx, slot)| async move {
@@ -70,3 +80,6 @@ fn sse_event(event: &Arc<FarmEvent>) -> Event {
         .event(event.kind.name())
         .data(data)
 }
+
+#[cfg(test)]
+mod tests;
