@@ -139,7 +139,9 @@ impl RenderArgs {
         }
         if self.error_png && scene.film.spp < 2 {
             bail!(
-                "--error-png: film.spp is {}, and with one sample a pixel's error cannot be                  estimated (its stderr is 0, which is not \"no error\"); render with --spp 2                  or more",
+                "--error-png: film.spp is {}, and with one sample a pixel's error cannot be \
+                 estimated (its stderr is 0, which is not \"no error\"); render with --spp 2 \
+                 or more",
                 scene.film.spp
             );
         }

@@ -434,6 +434,8 @@ fn error_png_needs_two_samples_and_half_writes_half_floats() {
         stderr.contains("--error-png: film.spp is 1") && stderr.contains("--spp 2"),
         "{stderr}"
     );
+    // A sentence, not a source line's indentation.
+    assert!(!stderr.contains("  "), "{stderr}");
     assert!(!dir.path().join("one.exr").exists());
 
     let done = render_in(

@@ -120,7 +120,8 @@ impl Ledger {
                 stuck.push((
                     job.id,
                     format!(
-                        "every connected worker ({}) failed {WORKER_STRIKE_LIMIT} tiles of this                          job and is kept off it; last error: {}",
+                        "every connected worker ({}) failed {WORKER_STRIKE_LIMIT} tiles of this \
+                         job and is kept off it; last error: {}",
                         self.worker_names(&live),
                         last_error(job, None)
                     ),
