@@ -57,6 +57,7 @@ where
 {
     let wait = Wait {
         show: farm.show,
+        local: true,
         ..Wait::default()
     };
     render_waiting(farm, wait, submit).await
@@ -149,6 +150,7 @@ mod tests {
             quiet: hour,
             unreachable_for: hour,
             show: Show::Nothing,
+            local: true,
         };
         let farm = LocalFarm {
             workers: 1,

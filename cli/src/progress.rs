@@ -29,6 +29,9 @@ pub struct Wait {
     pub unreachable_for: Duration,
     /// Where the job's progress goes.
     pub show: Show,
+    /// The job is a local render's own (`spindle render` on its embedded farm): its progress
+    /// reads `render`, as with `--workers 0`, not `job N` — the farm is not the user's concern.
+    pub local: bool,
 }
 
 impl Default for Wait {
@@ -38,6 +41,7 @@ impl Default for Wait {
             quiet: Duration::from_secs(30),
             unreachable_for: Duration::from_secs(120),
             show: Show::on_stderr(false),
+            local: false,
         }
     }
 }
@@ -55,7 +59,7 @@ pub async fn wait_for(api: &Api, id: u64, wait: Wait) -> Result<JobInfo> {
         api,
         id,
         wait,
-        display: JobDisplay::new(id, wait.show),
+        display: JobDisplay::new(id, wait.show, wait.local),
         last_answer: Instant::now(),
         last_read: Instant::now(),
     };
@@ -135,14 +139,19 @@ struct JobDisplay {
 }
 
 impl JobDisplay {
-    fn new(id: u64, show: Show) -> Self {
+    fn new(id: u64, show: Show, local: bool) -> Self {
+        let what = if local {
+            "render".to_string()
+        } else {
+            format!("job {id}")
+        };
         let target = (show == Show::Bar).then(ProgressDrawTarget::stderr);
         let lines = (show == Show::Lines)
-            .then(|| Lines::new(format!("job {id}"), "tiles", LINE_EVERY, Instant::now()));
-        Self::drawn_on(id, target, lines)
+            .then(|| Lines::new(what.clone(), "tiles", LINE_EVERY, Instant::now()));
+        Self::drawn_on(what, target, lines)
     }
 
-    fn drawn_on(id: u64, target: Option<ProgressDrawTarget>, lines: Option<Lines>) -> Self {
+    fn drawn_on(what: String, target: Option<ProgressDrawTarget>, lines: Option<Lines>) -> Self {
         let bar = ProgressBar::hidden();
         bar.set_style(
             ProgressStyle::with_template(
@@ -151,7 +160,7 @@ impl JobDisplay {
             .expect("a valid template")
             .progress_chars("=> "),
         );
-        bar.set_prefix(format!("job {id}"));
+        bar.set_prefix(what);
         JobDisplay {
             bar,
             target,
@@ -321,7 +330,7 @@ mod tests {
     fn the_bar_is_drawn_only_once_the_tile_count_is_known() {
         let term = Recorded::default();
         let target = ProgressDrawTarget::term_like(Box::new(term.clone()));
-        let mut display = JobDisplay::drawn_on(3, Some(target), None);
+        let mut display = JobDisplay::drawn_on("job 3".into(), Some(target), None);
         assert_eq!(term.text(), "", "drawn before the job was read");
         display.update(0, 0, "queued".into(), None);
         assert_eq!(term.text(), "", "drawn with no tiles known");
@@ -332,5 +341,19 @@ mod tests {
             "{text:?}"
         );
         assert!(!text.contains("0/0"), "{text:?}");
+    }
+
+    /// A local render's progress says `render`, as `--workers 0` does, not the embedded farm's
+    /// job number; a job followed on a farm keeps its number.
+    #[test]
+    fn a_local_render_is_not_called_a_job() {
+        assert_eq!(
+            JobDisplay::new(7, Show::Nothing, true).bar.prefix(),
+            "render"
+        );
+        assert_eq!(
+            JobDisplay::new(7, Show::Nothing, false).bar.prefix(),
+            "job 7"
+        );
     }
 }
