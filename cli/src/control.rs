@@ -1,9 +1,10 @@
 //! `spindle pause|resume|requeue|delete JOB` and `spindle priority JOB N`: steering a job after
 //! it was submitted.
 
-use anyhow::Result;
+use anyhow::{Result, bail};
+use reqwest::StatusCode;
 
-use crate::api::Api;
+use crate::api::{Api, StatusError};
 
 /// `spindle pause|resume|requeue JOB` options.
 #[derive(Debug, clap::Args)]
@@ -52,7 +53,20 @@ pub async fn change(api: &Api, args: &JobArg, change: Change) -> Result<()> {
 }
 
 pub async fn delete(api: &Api, args: &DeleteArgs) -> Result<()> {
-    api.delete(args.job, args.force).await?;
+    if let Err(e) = api.delete(args.job, args.force).await {
+        // The coordinator's refusal names its query parameter; here the flag is what to use.
+        let unfinished = e
+            .downcast_ref::<StatusError>()
+            .is_some_and(|s| s.status == StatusCode::CONFLICT);
+        if unfinished && !args.force {
+            bail!(
+                "job {id} has not finished: cancel it first (spindle cancel {id}), or delete it \
+                 anyway with spindle delete {id} --force",
+                id = args.job
+            );
+        }
+        return Err(e);
+    }
     println!("job {}: deleted", args.job);
     Ok(())
 }

@@ -474,7 +474,12 @@ async fn jobs_are_named_listed_paused_reprioritised_fetched_by_name_and_deleted(
     assert!(text(&out).contains("priority -3"), "{}", text(&out));
     let out = spindle(&["delete", &first.to_string()], Some(&farm)).await;
     assert!(!out.status.success(), "an unfinished job needs --force");
-    assert!(text(&out).contains("force"), "{}", text(&out));
+    assert!(
+        text(&out).contains(&format!("spindle delete {first} --force"))
+            && !text(&out).contains("?force"),
+        "{}",
+        text(&out)
+    );
 
     // With a worker: --wait -o downloads the image; fetch without -o writes <name>.exr here.
     let mut farm = farm;
