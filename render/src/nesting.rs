@@ -10,6 +10,8 @@
 //! relative to the outer one ([`relative_eta`]), and single scattering and the receivers inside a
 //! nested medium see the lights of the outer medium through the one interface between them.
 
+use glam::DVec3;
+
 use crate::containment;
 use crate::flat_face::FlatFaces;
 use crate::light::Light;
@@ -58,6 +60,17 @@ pub fn route(
 /// `outer[o]`: the dielectric object whose medium surrounds object `o` (dielectric or not), if
 /// any.
 pub fn outer_media(objects: &[Object]) -> Vec<Option<usize>> {
+    objects
+        .iter()
+        .enumerate()
+        .map(|(i, inner)| innermost_holding(objects, *inner.mesh.positions().first()?, Some(i)))
+        .collect()
+}
+
+/// The innermost dielectric object (but `except`) whose medium holds `p`
+/// (`containment::holds`: inside or on its surface): of several, the one with the smallest
+/// bounding box (module doc).
+pub fn innermost_holding(objects: &[Object], p: DVec3, except: Option<usize>) -> Option<usize> {
     let volume = |o: &Object| {
         let (lo, hi) = o.mesh.bounds();
         (hi - lo).element_product()
@@ -65,20 +78,13 @@ pub fn outer_media(objects: &[Object]) -> Vec<Option<usize>> {
     objects
         .iter()
         .enumerate()
-        .map(|(i, inner)| {
-            let vertex = *inner.mesh.positions().first()?;
-            objects
-                .iter()
-                .enumerate()
-                .filter(|&(k, outer)| {
-                    k != i
-                        && matches!(outer.material, Material::Dielectric(_))
-                        && containment::holds(&outer.mesh, vertex)
-                })
-                .min_by(|a, b| volume(a.1).total_cmp(&volume(b.1)).then(a.0.cmp(&b.0)))
-                .map(|(k, _)| k)
+        .filter(|&(k, outer)| {
+            Some(k) != except
+                && matches!(outer.material, Material::Dielectric(_))
+                && containment::holds(&outer.mesh, p)
         })
-        .collect()
+        .min_by(|a, b| volume(a.1).total_cmp(&volume(b.1)).then(a.0.cmp(&b.0)))
+        .map(|(k, _)| k)
 }
 
 /// The index of object `o`'s medium over the index of the medium around it (`outer`); 1 for an

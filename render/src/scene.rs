@@ -245,11 +245,11 @@ impl Scene {
 
         let light_centers: Vec<DVec3> = lights.iter().map(Light::center).collect();
         check_media_layout(&objects, camera.position(), &light_centers)?;
-        let camera_medium = medium_at(&objects, camera.position());
+        let camera_medium = nesting::innermost_holding(&objects, camera.position(), None);
         let mut light_media = Vec::with_capacity(lights.len());
         for (j, light) in lights.iter().enumerate() {
             check_straddle(&objects, j, light)?;
-            light_media.push(medium_at(&objects, light.center()));
+            light_media.push(nesting::innermost_holding(&objects, light.center(), None));
         }
         let outer = nesting::outer_media(&objects);
         let flat_faces: Vec<FlatFaces> = (0..objects.len())
@@ -605,27 +605,6 @@ fn build_object(
 
 #[cfg(test)]
 mod tests;
-
-/// The dielectric object whose medium holds `p` (`containment::holds`: inside or on its
-/// surface), if any: inside several nested media, the innermost (the smallest by bounding box,
-/// as in `nesting`).
-fn medium_at(objects: &[Object], p: DVec3) -> Option<usize> {
-    let holding: Vec<usize> = objects
-        .iter()
-        .enumerate()
-        .filter(|(_, o)| matches!(o.material, Material::Dielectric(_)))
-        .filter(|(_, o)| containment::holds(&o.mesh, p))
-        .map(|(i, _)| i)
-        .collect();
-    let volume = |i: &usize| {
-        let (lo, hi) = objects[*i].mesh.bounds();
-        (hi - lo).element_product()
-    };
-    holding
-        .iter()
-        .copied()
-        .min_by(|a, b| volume(a).total_cmp(&volume(b)).then(a.cmp(b)))
-}
 
 /// Each dielectric object's medium must be apart from every other's or wholly inside it (the
 /// region two crossing surfaces both bound has no one medium) without touching it over an area

@@ -45,7 +45,6 @@ use methods::connect::{Connection, Outside, for_each_outside};
 pub use plan::describe_plan;
 use plan::{Model, object_bounds, plan_for};
 use prune::descent::DescentStack;
-use triangle::ends::PathEnds;
 
 /// Radiance arriving at `segment.origin`, inside the medium, travelling toward the camera (along
 /// `−segment.dir`), from light scattered once along the segment: the sum over the scene's lights
@@ -73,27 +72,14 @@ pub fn single_scatter(
     let mut stack = DescentStack::default();
     let mut total = Rgb::ZERO;
     let receivers = Receivers::of_segment(bounds, segment.origin, segment.dir, segment.length);
-    let eta = scene.relative_eta(segment.object);
     let length = segment.length;
     for (j, light) in scene.lights().iter().enumerate() {
         let point = sample_light(light, receivers, sampler);
         if point.is_black() {
             continue;
         }
-        let connection = |light: LightPoint, outside: Outside| Connection {
-            scene,
-            object_index: segment.object,
-            object,
-            ends: PathEnds {
-                origin: segment.origin,
-                dir: segment.dir,
-                light: light.position(),
-                eta,
-            },
-            medium,
-            light,
-            outside,
-            beam_table: scene.beam_table(segment.object, j),
+        let connection = |light: LightPoint, outside: Outside| {
+            Connection::along(scene, segment, medium, j, light, outside)
         };
         if scene.route(segment.object, j) == Route::Inside {
             let connection = connection(point, Outside::Straight(None));

@@ -57,7 +57,7 @@ use crate::scatter::plan::object_bounds;
 use crate::scatter::prune::descent::{DescentStack, for_each_candidate};
 use crate::scatter::triangle::branches::triangle_intervals_with;
 use crate::scatter::triangle::curve::Sign;
-use crate::scatter::triangle::ends::{DepthRange, PathEnds};
+use crate::scatter::triangle::ends::DepthRange;
 use crate::scatter::triangle::solve::{NewtonSettings, RefractionPath, solve_at};
 use crate::scene::{Material, Scene};
 use crate::segment::Segment;
@@ -103,7 +103,6 @@ pub fn through_boundary(
     let mut stack = DescentStack::default();
     let mut scans = EdgeScans::default();
     let mut total = Rgb::ZERO;
-    let eta = scene.relative_eta(segment.object);
     for (j, light) in scene.lights().iter().enumerate() {
         // Always draw the numbers, so later dimensions do not depend on what follows.
         let point = sample_light(light, receivers, sampler);
@@ -111,22 +110,9 @@ pub fn through_boundary(
             continue;
         }
         for_each_outside(scene, segment.object, j, point, |light, outside| {
-            let connection = Connection {
-                scene,
-                object_index: segment.object,
-                object,
-                ends: PathEnds {
-                    origin: segment.origin,
-                    dir: segment.dir,
-                    light: light.position(),
-                    eta,
-                },
-                medium: dielectric.medium,
-                light,
-                outside,
-                beam_table: scene.beam_table(segment.object, j),
-            };
-            total += if eta == 1.0 {
+            let connection =
+                Connection::along(scene, segment, dielectric.medium, j, light, outside);
+            total += if connection.ends.eta == 1.0 {
                 straight_irradiance(&connection, receiver, stats)
             } else {
                 scans.clear();

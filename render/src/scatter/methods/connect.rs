@@ -28,6 +28,7 @@ use crate::scatter::triangle::contribution::path_contribution;
 use crate::scatter::triangle::ends::PathEnds;
 use crate::scatter::triangle::solve::RefractionPath;
 use crate::scene::{Material, Object, Scene};
+use crate::segment::Segment;
 
 /// What lies between the object's surface and the light point: the medium around the object.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -66,7 +67,35 @@ pub struct Connection<'a> {
     pub beam_table: Option<&'a BeamTable>,
 }
 
-impl Connection<'_> {
+impl<'a> Connection<'a> {
+    /// The connection of the camera segment `segment` (inside the medium `medium` of its
+    /// object) to the light point `light` of `lights[light_index]`, reached as `outside` says;
+    /// the index across the object's surface is its relative one (`Scene::relative_eta`).
+    pub fn along(
+        scene: &'a Scene,
+        segment: &Segment,
+        medium: Medium,
+        light_index: usize,
+        light: LightPoint,
+        outside: Outside,
+    ) -> Self {
+        Connection {
+            scene,
+            object_index: segment.object,
+            object: &scene.objects()[segment.object],
+            ends: PathEnds {
+                origin: segment.origin,
+                dir: segment.dir,
+                light: light.position(),
+                eta: scene.relative_eta(segment.object),
+            },
+            medium,
+            light,
+            outside,
+            beam_table: scene.beam_table(segment.object, light_index),
+        }
+    }
+
     /// The radiance per unit length of the segment that the solved path `path` on the object's
     /// triangle `triangle` sends toward the camera at `V(path.t)` (physics.md eq. 2, with the
     /// η² of eq. 1 and without `T(V_min)`, see `contribution`), times the sample weight
