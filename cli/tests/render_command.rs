@@ -274,12 +274,13 @@ fn set_overrides_a_scene_field_and_is_checked_like_the_file() {
 }
 
 /// The layers of an EXR, alpha included, to compare two renders pixel for pixel.
-fn layers(path: &Path) -> [Vec<f32>; 5] {
+fn layers(path: &Path) -> [Vec<f32>; 6] {
     let image = read_exr(path).unwrap();
     [
         image.total,
         image.surface,
         image.single_scatter,
+        image.multiple_scatter,
         image.stderr,
         image.alpha,
     ]

@@ -17,7 +17,8 @@
 //!   comps the element over a plate with; the colour is the renderer's mean over samples, so
 //!   with the default black `background` it is premultiplied by `A` as OpenEXR expects — a
 //!   sample that misses every object adds nothing — and a non-black background is in it),
-//!   `surface.R/G/B`, `single_scatter.R/G/B` and `stderr.R/G/B`, all 32-bit float (or all
+//!   `surface.R/G/B`, `single_scatter.R/G/B`, `multiple_scatter.R/G/B` and `stderr.R/G/B`,
+//!   all 32-bit float (or all
 //!   16-bit half floats with [`Precision::Half`], `film.half`: half the size, about three
 //!   significant digits, values above 65504 become infinite), and one
 //!   text header attribute (UTF-8) per entry of [`Image::attributes`], beside the standard
@@ -89,10 +90,15 @@ pub enum ImageError {
 
 /// The EXR channels of each layer, in [`LAYERS`] order. `total` is the plain, ungrouped
 /// `R,G,B` and `alpha` its `A`, so any viewer shows them by default.
-const EXR_CHANNELS: [&[&str]; 5] = [
+const EXR_CHANNELS: [&[&str]; 6] = [
     &["R", "G", "B"],
     &["surface.R", "surface.G", "surface.B"],
     &["single_scatter.R", "single_scatter.G", "single_scatter.B"],
+    &[
+        "multiple_scatter.R",
+        "multiple_scatter.G",
+        "multiple_scatter.B",
+    ],
     &["stderr.R", "stderr.G", "stderr.B"],
     &["A"],
 ];
@@ -147,12 +153,14 @@ pub struct Image {
     pub height: u32,
     /// Where the window lies in the film.
     pub placement: Placement,
-    /// `surface + single_scatter`, RGB, row-major.
+    /// `surface + single_scatter + multiple_scatter`, RGB, row-major.
     pub total: Vec<f32>,
     /// Reflected and transmitted light, RGB, row-major.
     pub surface: Vec<f32>,
     /// Single scattering inside media, RGB, row-major.
     pub single_scatter: Vec<f32>,
+    /// Light scattered twice or more inside media, RGB, row-major.
+    pub multiple_scatter: Vec<f32>,
     /// The standard error of each pixel's `total`, estimated from its samples, RGB, row-major.
     pub stderr: Vec<f32>,
     /// The coverage of objects against the background, one value per pixel, row-major.
@@ -181,6 +189,7 @@ impl Image {
             total: vec![0.0; n],
             surface: vec![0.0; n],
             single_scatter: vec![0.0; n],
+            multiple_scatter: vec![0.0; n],
             stderr: vec![0.0; n],
             alpha: vec![0.0; n / 3],
             attributes: BTreeMap::new(),
@@ -243,21 +252,23 @@ impl Image {
     }
 
     /// The layers in [`LAYERS`] order.
-    pub fn layers(&self) -> [&[f32]; 5] {
+    pub fn layers(&self) -> [&[f32]; 6] {
         [
             &self.total,
             &self.surface,
             &self.single_scatter,
+            &self.multiple_scatter,
             &self.stderr,
             &self.alpha,
         ]
     }
 
-    fn layers_mut(&mut self) -> [&mut Vec<f32>; 5] {
+    fn layers_mut(&mut self) -> [&mut Vec<f32>; 6] {
         [
             &mut self.total,
             &mut self.surface,
             &mut self.single_scatter,
+            &mut self.multiple_scatter,
             &mut self.stderr,
             &mut self.alpha,
         ]
@@ -458,8 +469,8 @@ impl Image {
     }
 
     /// Reads an EXR file written by [`Image::write_exr`] (or any one-part EXR with the same
-    /// float channels; without the `stderr` ones, as spindle wrote before that layer, `stderr`
-    /// is 0; without `A`, as spindle wrote before alpha, `alpha` is 1, opaque, as viewers show
+    /// float channels; without the `stderr` or `multiple_scatter` ones, as spindle wrote before
+    /// those layers, they are 0; without `A`, as spindle wrote before alpha, `alpha` is 1, opaque, as viewers show
     /// an image without alpha), with its text header attributes and its place in the film (the
     /// data window inside the display window).
     pub fn from_exr_bytes(bytes: &[u8]) -> Result<Image, ImageError> {
@@ -720,6 +731,8 @@ fn read_exr_from(bytes: &[u8], path: &str) -> Result<Image, ImageError> {
                 Some(channel) => channel,
                 // Files written before the `stderr` layer existed have none: it reads as 0.
                 None if name.starts_with("stderr.") => continue,
+                // Files written before multiple scattering have none: it reads as 0.
+                None if name.starts_with("multiple_scatter.") => continue,
                 // Files written before alpha have none: opaque.
                 None if *name == "A" => {
                     dst.fill(1.0);

@@ -19,6 +19,8 @@ pub struct PixelSums {
     pub surface: [f64; 3],
     /// Σ of the samples' `single_scatter` radiance, RGB.
     pub single_scatter: [f64; 3],
+    /// Σ of the samples' `multiple_scatter` radiance, RGB.
+    pub multiple_scatter: [f64; 3],
     /// Welford's running mean of the total, RGB.
     pub mean: [f64; 3],
     /// Welford's sum of squared deviations of the total from its mean, RGB.
@@ -58,6 +60,7 @@ impl TileProgress {
                 .surface
                 .iter()
                 .chain(&p.single_scatter)
+                .chain(&p.multiple_scatter)
                 .chain(&p.mean)
                 .chain(&p.m2)
             {

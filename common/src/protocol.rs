@@ -979,6 +979,7 @@ mod tests {
             &mut pixels.total,
             &mut pixels.surface,
             &mut pixels.single_scatter,
+            &mut pixels.multiple_scatter,
             &mut pixels.stderr,
         ] {
             for v in layer.iter_mut() {
@@ -995,6 +996,7 @@ mod tests {
             .map(|_| crate::passes::PixelSums {
                 surface: [long_f64(), long_f64(), long_f64()],
                 single_scatter: [long_f64(), long_f64(), long_f64()],
+                multiple_scatter: [long_f64(), long_f64(), long_f64()],
                 mean: [long_f64(), long_f64(), long_f64()],
                 m2: [long_f64(), long_f64(), long_f64()],
                 mean_y: long_f64(),
@@ -1053,8 +1055,8 @@ mod tests {
     fn canonical_bytes_follow_the_documented_layout() {
         let t = tile();
         let b = canonical_pixel_bytes(&t);
-        // Four RGB layers of two pixels, then alpha's two values.
-        assert_eq!(b.len(), 16 + 4 * (4 * 6 + 2));
+        // Five RGB layers of two pixels, then alpha's two values.
+        assert_eq!(b.len(), 16 + 4 * (5 * 6 + 2));
         assert_eq!(&b[0..4], &3u32.to_le_bytes());
         assert_eq!(&b[12..16], &1u32.to_le_bytes());
         assert_eq!(&b[16..20], &1.0f32.to_bits().to_le_bytes());

@@ -377,6 +377,8 @@ pub struct Integrator {
     pub internal_reflections: u32,
     #[serde(default)]
     pub single_scatter: SingleScatter,
+    #[serde(default)]
+    pub multiple_scatter: MultipleScatter,
 }
 
 fn default_max_depth() -> u32 {
@@ -392,8 +394,62 @@ impl Default for Integrator {
             max_depth: default_max_depth(),
             internal_reflections: default_internal_reflections(),
             single_scatter: SingleScatter::default(),
+            multiple_scatter: MultipleScatter::default(),
         }
     }
+}
+
+/// Multiple scattering inside a medium: from each camera segment, paths scattered by the
+/// attenuation and the phase function, whose every segment inside the medium gets the
+/// single-scattering light integral toward every light.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MultipleScatter {
+    /// The highest scattering order computed (1 turns multiple scattering off; the
+    /// `multiple_scatter` layer holds orders 2 to `max_order`).
+    #[serde(default = "default_max_order")]
+    #[schema(minimum = 1, maximum = 1024)]
+    pub max_order: u32,
+    /// Secondary paths started from each camera segment.
+    #[serde(default = "default_paths")]
+    #[schema(minimum = 1, maximum = 64)]
+    pub paths: u32,
+    /// The light integral along each secondary segment: `auto` runs the object's
+    /// single-scattering model (the plan's), or one named here.
+    #[serde(default)]
+    pub method: SecondaryMethod,
+}
+
+fn default_max_order() -> u32 {
+    64
+}
+fn default_paths() -> u32 {
+    1
+}
+
+impl Default for MultipleScatter {
+    fn default() -> Self {
+        MultipleScatter {
+            max_order: default_max_order(),
+            paths: default_paths(),
+            method: SecondaryMethod::default(),
+        }
+    }
+}
+
+/// The estimator of the light along a multiple-scattering path's secondary segments.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum SecondaryMethod {
+    /// The object's single-scattering model, as the plan chose it.
+    #[default]
+    Auto,
+    /// Holzschuch 2015: per-triangle depth intervals.
+    Interval,
+    /// Walter et al. 2009: stratified points along the segment.
+    PointSampling,
+    /// The straight-line approximation: fast, dark where the boundary bends the light.
+    StraightLine,
 }
 
 /// Which single-scattering estimator runs, and its accuracy settings.

@@ -14,6 +14,8 @@ pub struct RenderStats {
     pub camera_rays: u64,
     /// Camera path segments inside a medium handed to the single-scattering integrator.
     pub camera_segments: u64,
+    /// Segments of multiple-scattering paths handed to the single-scattering integrator.
+    pub secondary_segments: u64,
     /// BVH nodes visited by the single-scattering descent.
     pub bvh_nodes_visited: u64,
     /// BVH nodes culled by the spindle test.
@@ -51,6 +53,7 @@ impl RenderStats {
         let RenderStats {
             camera_rays,
             camera_segments,
+            secondary_segments,
             bvh_nodes_visited,
             nodes_culled_spindle,
             nodes_culled_cone,
@@ -67,6 +70,7 @@ impl RenderStats {
         } = other;
         self.camera_rays += camera_rays;
         self.camera_segments += camera_segments;
+        self.secondary_segments += secondary_segments;
         self.bvh_nodes_visited += bvh_nodes_visited;
         self.nodes_culled_spindle += nodes_culled_spindle;
         self.nodes_culled_cone += nodes_culled_cone;

@@ -59,12 +59,13 @@ pub struct Layer {
     pub channels: usize,
 }
 
-/// The image layers spindle writes, in this order. `total` = `surface` + `single_scatter`;
+/// The image layers spindle writes, in this order. `total` = `surface` + `single_scatter` +
+/// `multiple_scatter` (light scattered twice or more inside a medium);
 /// `stderr` is the standard error of each pixel's mean of `total`, estimated from its samples
 /// (0 with one sample per pixel, where it cannot be estimated); `alpha` is the coverage of
 /// objects against the background: the mean over the pixel's samples of whether the camera
 /// ray hits any object (1 wholly inside a silhouette, 0 where only the background is seen).
-pub const LAYERS: [Layer; 5] = [
+pub const LAYERS: [Layer; 6] = [
     Layer {
         name: "total",
         channels: 3,
@@ -78,6 +79,10 @@ pub const LAYERS: [Layer; 5] = [
         channels: 3,
     },
     Layer {
+        name: "multiple_scatter",
+        channels: 3,
+    },
+    Layer {
         name: "stderr",
         channels: 3,
     },
@@ -88,7 +93,7 @@ pub const LAYERS: [Layer; 5] = [
 ];
 
 /// Values per pixel over all [`LAYERS`].
-pub const VALUES_PER_PIXEL: usize = 13;
+pub const VALUES_PER_PIXEL: usize = 16;
 const _: () = {
     let mut sum = 0;
     let mut i = 0;
@@ -113,6 +118,8 @@ pub struct TilePixels {
     pub surface: Vec<f32>,
     #[serde(deserialize_with = "finite_layer")]
     pub single_scatter: Vec<f32>,
+    #[serde(deserialize_with = "finite_layer")]
+    pub multiple_scatter: Vec<f32>,
     #[serde(deserialize_with = "finite_layer")]
     pub stderr: Vec<f32>,
     /// One value per pixel (see [`LAYERS`]).
@@ -163,6 +170,7 @@ impl TilePixels {
             total: vec![0.0; n],
             surface: vec![0.0; n],
             single_scatter: vec![0.0; n],
+            multiple_scatter: vec![0.0; n],
             stderr: vec![0.0; n],
             alpha: vec![0.0; rect.pixel_count()],
             stats: RenderStats::default(),
@@ -171,11 +179,12 @@ impl TilePixels {
     }
 
     /// The layers in [`LAYERS`] order.
-    pub fn layers(&self) -> [&[f32]; 5] {
+    pub fn layers(&self) -> [&[f32]; 6] {
         [
             &self.total,
             &self.surface,
             &self.single_scatter,
+            &self.multiple_scatter,
             &self.stderr,
             &self.alpha,
         ]
@@ -197,6 +206,7 @@ impl TilePixels {
             total: part(&self.total, values.clone()),
             surface: part(&self.surface, values.clone()),
             single_scatter: part(&self.single_scatter, values.clone()),
+            multiple_scatter: part(&self.multiple_scatter, values.clone()),
             stderr: part(&self.stderr, values),
             alpha: part(&self.alpha, pixels.clone()),
             stats: RenderStats::default(),
@@ -241,6 +251,8 @@ impl TilePixels {
             tile.total.extend_from_slice(&band.total);
             tile.surface.extend_from_slice(&band.surface);
             tile.single_scatter.extend_from_slice(&band.single_scatter);
+            tile.multiple_scatter
+                .extend_from_slice(&band.multiple_scatter);
             tile.stderr.extend_from_slice(&band.stderr);
             tile.alpha.extend_from_slice(&band.alpha);
             tile.stats.add(&band.stats);

@@ -50,6 +50,10 @@ pub const MAX_SUBDIVISIONS: u32 = 10;
 pub const MAX_ETA: f64 = 10.0;
 /// The largest `integrator.max_depth` accepted.
 pub const MAX_DEPTH: u32 = 64;
+/// The largest `integrator.multiple_scatter.max_order` accepted.
+pub const MAX_ORDER: u32 = 1024;
+/// The largest `integrator.multiple_scatter.paths` accepted.
+pub const MAX_SECONDARY_PATHS: u32 = 64;
 /// The largest `integrator.single_scatter.newton_tolerance` accepted.
 pub const MAX_NEWTON_TOLERANCE: f64 = 1e-2;
 /// The largest `integrator.single_scatter.k` accepted.
@@ -504,6 +508,19 @@ fn check_integrator(path: &str, integrator: &Integrator) -> Check {
     check_single_scatter(
         &format!("{path}.single_scatter"),
         &integrator.single_scatter,
+    )?;
+    let multiple = &integrator.multiple_scatter;
+    check_count(
+        &format!("{path}.multiple_scatter.max_order"),
+        multiple.max_order,
+        1,
+        MAX_ORDER,
+    )?;
+    check_count(
+        &format!("{path}.multiple_scatter.paths"),
+        multiple.paths,
+        1,
+        MAX_SECONDARY_PATHS,
     )
 }
 

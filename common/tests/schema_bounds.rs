@@ -5,8 +5,8 @@
 use serde_json::{Value, json};
 use spindle_common::scene::SceneDescription;
 use spindle_common::validate::{
-    MAX_COORDINATE, MAX_DEPTH, MAX_ETA, MAX_IMAGE_SIDE, MAX_K, MAX_NEWTON_TOLERANCE,
-    MAX_SAMPLES_PER_SEGMENT, MAX_SPP, MAX_SUBDIVISIONS,
+    MAX_COORDINATE, MAX_DEPTH, MAX_ETA, MAX_IMAGE_SIDE, MAX_K, MAX_NEWTON_TOLERANCE, MAX_ORDER,
+    MAX_SAMPLES_PER_SEGMENT, MAX_SECONDARY_PATHS, MAX_SPP, MAX_SUBDIVISIONS,
 };
 use utoipa::{PartialSchema, ToSchema};
 
@@ -76,6 +76,8 @@ fn scene_schema_bounds_are_the_validators() {
         max("SingleScatter", "newton_tolerance"),
         MAX_NEWTON_TOLERANCE
     );
+    assert_eq!(max("MultipleScatter", "max_order"), MAX_ORDER as f64);
+    assert_eq!(max("MultipleScatter", "paths"), MAX_SECONDARY_PATHS as f64);
     assert_eq!(number(&s["Point"]["items"], "maximum"), MAX_COORDINATE);
     assert_eq!(number(&s["Point"]["items"], "minimum"), -MAX_COORDINATE);
     let doc = serde_json::to_string(&s).unwrap();
@@ -108,5 +110,20 @@ fn scene_schema_bounds_are_the_validators() {
         MAX_NEWTON_TOLERANCE,
         MAX_NEWTON_TOLERANCE * 1.001,
         |v, x| v["integrator"] = json!({"single_scatter": {"newton_tolerance": x}}),
+    );
+    accepts_bound_refuses_past(
+        "integrator.multiple_scatter.max_order",
+        MAX_ORDER as f64,
+        MAX_ORDER as f64 + 1.0,
+        |v, x| v["integrator"] = json!({"multiple_scatter": {"max_order": x as u64}}),
+    );
+    accepts_bound_refuses_past("integrator.multiple_scatter.max_order", 1.0, 0.0, |v, x| {
+        v["integrator"] = json!({"multiple_scatter": {"max_order": x as u64}})
+    });
+    accepts_bound_refuses_past(
+        "integrator.multiple_scatter.paths",
+        MAX_SECONDARY_PATHS as f64,
+        MAX_SECONDARY_PATHS as f64 + 1.0,
+        |v, x| v["integrator"] = json!({"multiple_scatter": {"paths": x as u64}}),
     );
 }

@@ -17,6 +17,7 @@ pub mod interfaces;
 pub mod light;
 pub mod medium;
 pub mod mesh;
+pub mod multiple_scatter;
 pub mod nesting;
 pub mod obj;
 pub mod procedural;

@@ -14,6 +14,11 @@
 //! stratified together (a point inside a sphere light), [`Sampler::next_3d`] takes the first
 //! three dimensions of one pair's sequence, a (1, 3)-net, and uses up the next pair too, so the
 //! pairs after it stay aligned.
+//!
+//! A sub-estimator that draws an unknown number of numbers (a multiple-scattering path) takes a
+//! [`Sampler::fork`]: a sampler of its own, keyed by the parent's key and the fork's index, so
+//! the parent's dimensions — and every layer computed from them — are the same bits whether or
+//! not the fork is taken.
 
 /// The random numbers of one camera sample of one pixel.
 #[derive(Debug, Clone)]
@@ -24,6 +29,8 @@ pub struct Sampler {
     scramble: u32,
     sample: u32,
     dimension: u64,
+    /// Forks taken so far.
+    forks: u64,
 }
 
 /// The splitmix64 finaliser: a bijective 64-bit mix with full avalanche.
@@ -38,6 +45,9 @@ fn mix(mut z: u64) -> u64 {
 /// Separates the scramble's hash from the samples' keys.
 const SCRAMBLE_DOMAIN: u64 = 0x736F_626F_6C5F_6B65;
 
+/// Separates forks' keys and scrambles from the parent's.
+const FORK_DOMAIN: u64 = 0x666F_726B_5F6B_6579;
+
 /// Samples of one pixel beyond this index are independent hashes (the sequence's length).
 const SOBOL_SAMPLES: u32 = 1 << 16;
 
@@ -51,6 +61,23 @@ impl Sampler {
             scramble: (mix(pixel_key ^ SCRAMBLE_DOMAIN) >> 32) as u32,
             sample,
             dimension: 0,
+            forks: 0,
+        }
+    }
+
+    /// A sampler of its own for a sub-estimator: the `i`-th fork of this sampler is a pure
+    /// function of (seed, pixel, sample, i) and leaves this sampler's numbers unchanged. Its
+    /// scramble depends on the pixel and `i` but not on the sample, so the `i`-th forks of a
+    /// pixel's samples are stratified over the samples as the parent's pairs are.
+    pub fn fork(&mut self) -> Sampler {
+        self.forks += 1;
+        let index = mix(FORK_DOMAIN ^ self.forks);
+        Sampler {
+            key: mix(self.key ^ index),
+            scramble: (mix(u64::from(self.scramble) ^ index) >> 32) as u32,
+            sample: self.sample,
+            dimension: 0,
+            forks: 0,
         }
     }
 

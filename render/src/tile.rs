@@ -74,6 +74,7 @@ impl PixelProgress {
             sum: Radiance {
                 surface: Rgb::from_array(sums.surface),
                 single_scatter: Rgb::from_array(sums.single_scatter),
+                multiple_scatter: Rgb::from_array(sums.multiple_scatter),
             },
             mean: Rgb::from_array(sums.mean),
             m2: Rgb::from_array(sums.m2),
@@ -91,6 +92,7 @@ impl PixelProgress {
         PixelSums {
             surface: self.sum.surface.to_array(),
             single_scatter: self.sum.single_scatter.to_array(),
+            multiple_scatter: self.sum.multiple_scatter.to_array(),
             mean: self.mean.to_array(),
             m2: self.m2.to_array(),
             mean_y: self.mean_y,
@@ -126,9 +128,10 @@ impl PixelProgress {
             let r = radiance(scene, &ray, &mut sampler, &mut self.stats);
             self.sum.surface += r.surface;
             self.sum.single_scatter += r.single_scatter;
+            self.sum.multiple_scatter += r.multiple_scatter;
             self.taken += 1;
             let taken = f64::from(self.taken);
-            let total = r.surface + r.single_scatter;
+            let total = r.total();
             let delta = total - self.mean;
             self.mean += delta / taken;
             self.m2 += delta * (total - self.mean);
@@ -159,6 +162,7 @@ impl PixelProgress {
             radiance: Radiance {
                 surface: self.sum.surface / n,
                 single_scatter: self.sum.single_scatter / n,
+                multiple_scatter: self.sum.multiple_scatter / n,
             },
             stderr,
             alpha: f64::from(self.hits) / n,
@@ -204,11 +208,12 @@ pub fn pixels_to_tile<'a>(
     let mut tile = TilePixels::black(rect);
     for (i, value) in values.enumerate() {
         let r = value.radiance;
-        let total = r.surface + r.single_scatter;
+        let total = r.total();
         for c in 0..3 {
             tile.total[3 * i + c] = total[c] as f32;
             tile.surface[3 * i + c] = r.surface[c] as f32;
             tile.single_scatter[3 * i + c] = r.single_scatter[c] as f32;
+            tile.multiple_scatter[3 * i + c] = r.multiple_scatter[c] as f32;
             tile.stderr[3 * i + c] = value.stderr[c] as f32;
         }
         tile.alpha[i] = value.alpha as f32;

@@ -16,7 +16,7 @@
 //!
 //! Every straight piece of the path inside a medium is a [`Segment`] handed to
 //! [`scatter::single_scatter`]; its result times the segment throughput is the `single_scatter`
-//! layer. Everything else (lights seen directly, reflected or transmitted, lit diffuse surfaces,
+//! layer; the paths [`multiple_scatter`] starts from it give the `multiple_scatter` layer. Everything else (lights seen directly, reflected or transmitted, lit diffuse surfaces,
 //! background) is the `surface` layer.
 //!
 //! A camera inside a dielectric object starts its paths in that object's medium (throughput 1:
@@ -35,6 +35,7 @@ use spindle_common::stats::RenderStats;
 use crate::Rgb;
 use crate::bvh::Hit;
 use crate::fresnel::{reflect, reflectance, refract};
+use crate::multiple_scatter;
 use crate::ray::Ray;
 use crate::sampler::Sampler;
 use crate::scatter;
@@ -56,11 +57,20 @@ fn significant(scene: &Scene, throughput: Rgb, inside: Option<usize>) -> bool {
     throughput.max_element() * (n * n) >= BRANCH_CUTOFF
 }
 
-/// The radiance of one camera sample, by layer. `total` = `surface` + `single_scatter`.
+/// The radiance of one camera sample, by layer. `total` = `surface` + `single_scatter` +
+/// `multiple_scatter`.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Radiance {
     pub surface: Rgb,
     pub single_scatter: Rgb,
+    pub multiple_scatter: Rgb,
+}
+
+impl Radiance {
+    /// The sum of the layers.
+    pub fn total(&self) -> Rgb {
+        self.surface + self.single_scatter + self.multiple_scatter
+    }
 }
 
 /// Where a path is and what it carries.
@@ -149,6 +159,10 @@ fn trace(
             let scattered = scatter::single_scatter(scene, &segment, sampler, stats);
             debug_assert!(scattered.is_finite(), "single_scatter returned {scattered}");
             out.single_scatter += state.throughput * scattered;
+            let multiple =
+                multiple_scatter::multiple_scatter(scene, &segment, &mut sampler.fork(), stats);
+            debug_assert!(multiple.is_finite(), "multiple_scatter returned {multiple}");
+            out.multiple_scatter += state.throughput * multiple;
             if let Some((t_light, emitted)) = light {
                 let seen = dielectric.medium.transmittance(t_light) * emitted;
                 out.surface += state.throughput * seen;

@@ -31,7 +31,7 @@ const REGION: TileRect = TileRect {
 };
 
 /// `a` and `b` (an image's or a tile's layers) hold the same bits.
-fn same_bits(a: [&[f32]; 5], b: [&[f32]; 5], what: &str) {
+fn same_bits(a: [&[f32]; 6], b: [&[f32]; 6], what: &str) {
     for (layer, (x, y)) in a.iter().zip(b).enumerate() {
         let differ = x
             .iter()

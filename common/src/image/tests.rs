@@ -28,6 +28,7 @@ fn tile_of(rect: TileRect) -> TilePixels {
         &mut tile.total,
         &mut tile.surface,
         &mut tile.single_scatter,
+        &mut tile.multiple_scatter,
         &mut tile.stderr,
         &mut tile.alpha,
     ]
@@ -130,7 +131,8 @@ fn bad_tiles_are_rejected_and_leave_the_image_unchanged() {
                 0 => &mut tile.total,
                 1 => &mut tile.surface,
                 2 => &mut tile.single_scatter,
-                3 => &mut tile.stderr,
+                3 => &mut tile.multiple_scatter,
+                4 => &mut tile.stderr,
                 _ => &mut tile.alpha,
             };
             buffer.resize((right + delta) as usize, 0.0);
@@ -241,6 +243,9 @@ fn the_same_image_always_gives_the_same_bytes() {
             "B",
             "G",
             "R",
+            "multiple_scatter.B",
+            "multiple_scatter.G",
+            "multiple_scatter.R",
             "single_scatter.B",
             "single_scatter.G",
             "single_scatter.R",
@@ -423,10 +428,10 @@ fn files_without_the_stderr_layer_or_alpha_read_with_stderr_zero_and_alpha_one()
         .all_attributes()
         .from_buffered(std::io::Cursor::new(bytes))
         .unwrap();
-    file.layer_data
-        .channel_data
-        .list
-        .retain(|c| !c.name.to_string().starts_with("stderr.") && !c.name.eq("A"));
+    file.layer_data.channel_data.list.retain(|c| {
+        let name = c.name.to_string();
+        !name.starts_with("stderr.") && !name.starts_with("multiple_scatter.") && name != "A"
+    });
     assert_eq!(file.layer_data.channel_data.list.len(), 9);
     let mut old = Vec::new();
     file.write()
@@ -434,6 +439,7 @@ fn files_without_the_stderr_layer_or_alpha_read_with_stderr_zero_and_alpha_one()
         .unwrap();
     let back = Image::from_exr_bytes(&old).unwrap();
     assert!(back.stderr.iter().all(|&v| v == 0.0));
+    assert!(back.multiple_scatter.iter().all(|&v| v == 0.0));
     assert_eq!(back.alpha, vec![1.0; 7 * 5]);
     assert_eq!(
         (back.total, back.surface, back.single_scatter),

@@ -42,7 +42,8 @@ fn full_scene() -> Value {
         "integrator": {
             "max_depth": 8, "internal_reflections": 2,
             "single_scatter": { "method": "interval", "k": 2, "newton_tolerance": 1e-8,
-                                "samples_per_segment": 16, "auto_tolerance": 0.01 }
+                                "samples_per_segment": 16, "auto_tolerance": 0.01 },
+            "multiple_scatter": { "max_order": 16, "paths": 2, "method": "point_sampling" }
         }
     })
 }
@@ -711,6 +712,32 @@ fn integrator_values_are_checked() {
         "integrator.single_scatter.auto_tolerance",
         "[0, 1)",
     );
+    let ms = "/integrator/multiple_scatter";
+    rejects(
+        &format!("{ms}/max_order"),
+        json!(0),
+        "integrator.multiple_scatter.max_order",
+        ">= 1",
+    );
+    rejects(
+        &format!("{ms}/max_order"),
+        json!(1025),
+        "integrator.multiple_scatter.max_order",
+        "<= 1024",
+    );
+    rejects(
+        &format!("{ms}/paths"),
+        json!(0),
+        "integrator.multiple_scatter.paths",
+        ">= 1",
+    );
+    rejects(
+        &format!("{ms}/method"),
+        json!("reference"),
+        "integrator.multiple_scatter.method",
+        "unknown variant",
+    );
+    assert!(with(&format!("{ms}/max_order"), json!(1)).is_ok());
 }
 
 #[test]

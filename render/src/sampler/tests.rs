@@ -127,3 +127,45 @@ fn three_numbers_are_stratified_together() {
         }
     }
 }
+
+/// A fork leaves its parent's numbers as they were, is the same bits for the same key and fork
+/// index, and differs between forks, samples and pixels.
+#[test]
+fn forks_leave_the_parent_unchanged_and_are_keyed() {
+    let draw = |r: &mut Sampler| [r.next_f64(), r.next_f64(), r.next_f64()];
+    let mut plain = Sampler::new(7, 3, 4, 5);
+    let mut forked = Sampler::new(7, 3, 4, 5);
+    let first = draw(&mut plain);
+    assert_eq!(draw(&mut forked), first);
+    let mut a = forked.fork();
+    let mut b = forked.fork();
+    assert_eq!(
+        draw(&mut plain),
+        draw(&mut forked),
+        "the parent is unchanged"
+    );
+    let (fa, fb) = (draw(&mut a), draw(&mut b));
+    assert_ne!(fa, fb, "two forks differ");
+    let mut again = Sampler::new(7, 3, 4, 5);
+    draw(&mut again);
+    assert_eq!(
+        draw(&mut again.fork()),
+        fa,
+        "a fork is a pure function of its key"
+    );
+    assert_ne!(draw(&mut Sampler::new(7, 3, 4, 6).fork()), fa);
+    assert_ne!(draw(&mut Sampler::new(7, 4, 4, 5).fork()), fa);
+}
+
+/// The first forks of a pixel's first 16 samples fill the 4×4 grid with one point each, as the
+/// parent's pairs do: a fork keeps the stratification over samples.
+#[test]
+fn first_forks_are_stratified_over_samples() {
+    let mut cells = [0u32; 16];
+    for s in 0..16 {
+        let mut fork = Sampler::new(11, 5, 9, s).fork();
+        let [u, v] = fork.next_2d();
+        cells[(u * 4.0) as usize * 4 + (v * 4.0) as usize] += 1;
+    }
+    assert_eq!(cells, [1; 16]);
+}

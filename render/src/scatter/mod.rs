@@ -56,15 +56,27 @@ pub fn single_scatter(
     sampler: &mut Sampler,
     stats: &mut RenderStats,
 ) -> Rgb {
+    let model = plan_for(scene, segment.object).model;
+    single_scatter_by(scene, segment, model, sampler, stats)
+}
+
+/// [`single_scatter`] by `model` rather than the object's plan (multiple scattering's
+/// secondary segments, whose model the settings may name).
+pub fn single_scatter_by(
+    scene: &Scene,
+    segment: &Segment,
+    model: Model,
+    sampler: &mut Sampler,
+    stats: &mut RenderStats,
+) -> Rgb {
     let object = &scene.objects()[segment.object];
     let Material::Dielectric(dielectric) = object.material else {
         return Rgb::ZERO;
     };
-    let plan = plan_for(scene, segment.object);
     let Some(bounds) = object_bounds(object) else {
         return Rgb::ZERO;
     };
-    if plan.model == Model::Skip || !segment.length.is_finite() || segment.length <= 0.0 {
+    if model == Model::Skip || !segment.length.is_finite() || segment.length <= 0.0 {
         return Rgb::ZERO;
     }
     let medium = dielectric.medium;
@@ -90,7 +102,7 @@ pub fn single_scatter(
         // reaches the medium by no modelled route gives nothing (the plan says so).
         for_each_outside(scene, segment.object, j, point, |light, outside| {
             let connection = connection(light, outside);
-            total += match plan.model {
+            total += match model {
                 Model::Skip => Rgb::ZERO,
                 Model::Interval => methods::interval::estimate(
                     &connection,

@@ -37,6 +37,19 @@ pub enum Model {
     Reference,
 }
 
+impl Model {
+    /// The model's name as the scene's `method` spells it (`none` for [`Model::Skip`]).
+    pub fn name(self) -> &'static str {
+        match self {
+            Model::Skip => "none",
+            Model::Interval => "interval",
+            Model::PointSampling => "point_sampling",
+            Model::StraightLine => "straight_line",
+            Model::Reference => "reference",
+        }
+    }
+}
+
 /// A model and the reason it was chosen.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Plan {
@@ -134,13 +147,7 @@ pub fn describe_plan(scene: &Scene) -> Vec<String> {
         .enumerate()
         .map(|(i, object)| {
             let plan = plan_for(scene, i);
-            let model = match plan.model {
-                Model::Skip => "none",
-                Model::Interval => "interval",
-                Model::PointSampling => "point_sampling",
-                Model::StraightLine => "straight_line",
-                Model::Reference => "reference",
-            };
+            let model = plan.model.name();
             let normals = match plan.model {
                 Model::Interval | Model::PointSampling | Model::Reference => {
                     if has_flat_normals(object) {
@@ -153,6 +160,7 @@ pub fn describe_plan(scene: &Scene) -> Vec<String> {
             };
             format!("objects[{i}]: {model} ({}{normals})", plan.reason)
         })
+        .chain(crate::multiple_scatter::describe(scene))
         .chain(describe_placement(scene))
         .chain(scene.second_interfaces().iter().map(|s| s.describe()))
         .collect()
