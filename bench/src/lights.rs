@@ -94,7 +94,14 @@ fn scene(light: desc::Light, size: u32, spp: u32, seed: u64) -> desc::SceneDescr
             },
         }],
         background: [0.0; 3],
-        integrator: desc::Integrator::default(),
+        // The study compares the single_scatter layer: multiple scattering would only add time.
+        integrator: desc::Integrator {
+            multiple_scatter: desc::MultipleScatter {
+                max_order: 1,
+                ..desc::MultipleScatter::default()
+            },
+            ..desc::Integrator::default()
+        },
     }
 }
 

@@ -4,7 +4,8 @@
 //! ratio), [`scaling`] (time per ray against triangle count), [`pruning`] (what each pruning
 //! stage culls and what it saves), [`memory`] (peak resident memory of a renderer process
 //! against triangle count), [`throughput`] (throughput of the local farm and the coordinator's
-//! overhead per tile), [`lights`] (the noise of area lights against point lights). Every figure is printed with its setup and kept in the output folder
+//! overhead per tile), [`lights`] (the noise of area lights against point lights), [`multiple`]
+//! (multiple scattering's settings, and against a phase-sampling path tracer). Every figure is printed with its setup and kept in the output folder
 //! as CSV and PNG plots (`summary.txt` holds the printed record).
 //!
 //! Timing ([`runner`]): renders run on a private single-thread rayon pool, and each figure is
@@ -15,6 +16,7 @@ mod accuracy;
 mod lights;
 mod memory;
 mod metric;
+mod multiple;
 mod plot;
 mod pruning;
 mod report;
@@ -86,6 +88,7 @@ pub enum Study {
     Memory,
     Throughput,
     Lights,
+    Multiple,
 }
 
 fn main() -> ExitCode {
@@ -142,6 +145,9 @@ fn run(args: &BenchArgs) -> Result<()> {
     }
     if wants(Study::Lights) {
         lights::run(&mut report, args)?;
+    }
+    if wants(Study::Multiple) {
+        multiple::run(&mut report, args)?;
     }
     report.line(format!(
         "bench finished in {:.1} s",

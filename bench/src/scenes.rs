@@ -150,8 +150,14 @@ impl Model {
                 },
             }],
             background: [0.0, 0.0, 0.0],
+            // The benchmarks measure the single_scatter layer: no multiple scattering's time in
+            // their figures.
             integrator: desc::Integrator {
                 single_scatter,
+                multiple_scatter: desc::MultipleScatter {
+                    max_order: 1,
+                    ..desc::MultipleScatter::default()
+                },
                 ..desc::Integrator::default()
             },
         }

@@ -1,5 +1,5 @@
 //! `spindle render SCENE.json -o OUT.exr [--workers N]`: render a scene on this machine and
-//! write the OpenEXR image (layers `total` with alpha, `surface`, `single_scatter`, `stderr`) and a PNG preview
+//! write the OpenEXR image (layers `total` with alpha, `surface`, `single_scatter`, `multiple_scatter`, `stderr`) and a PNG preview
 //! beside it (`OUT.png`), or with `-o OUT.png` the PNG preview alone.
 //!
 //! By default through an embedded local farm ([`crate::local_farm`]: a coordinator and N
@@ -87,7 +87,7 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = DEFAULT_TILE_SIZE)]
     pub tile_size: u32,
     /// Print the render statistics and the mean of each layer (total, surface, single_scatter,
-    /// stderr).
+    /// multiple_scatter, stderr, alpha).
     #[arg(long)]
     pub stats: bool,
     /// Also write `OUT.stderr.png`: each pixel's relative standard error (stderr / total),
@@ -438,13 +438,11 @@ fn in_process(args: &RenderArgs) -> Result<()> {
         let value = render_pixel(&scene, x, y);
         let r = value.radiance;
         println!("pixel {x},{y}:");
-        println!(
-            "  total          {:?}",
-            (r.surface + r.single_scatter).to_array()
-        );
-        println!("  surface        {:?}", r.surface.to_array());
-        println!("  single_scatter {:?}", r.single_scatter.to_array());
-        println!("  alpha          {:?}", value.alpha);
+        println!("  total            {:?}", r.total().to_array());
+        println!("  surface          {:?}", r.surface.to_array());
+        println!("  single_scatter   {:?}", r.single_scatter.to_array());
+        println!("  multiple_scatter {:?}", r.multiple_scatter.to_array());
+        println!("  alpha            {:?}", value.alpha);
         if args.output.is_none() {
             return Ok(());
         }

@@ -45,6 +45,10 @@ pub struct RenderStats {
     /// traced arc, intervals; reference: solutions per camera point). Light may be missing
     /// wherever this is not 0; the capacities are sized so that the example scenes never drop.
     pub capacity_drops: u64,
+    /// The same on multiple scattering's secondary segments (counted apart: a segment from
+    /// anywhere inside the medium in any direction can run through a point focus, such as the
+    /// Cartesian oval's of `scenes/caustic.json`, where a whole traced arc lies at one depth).
+    pub secondary_capacity_drops: u64,
 }
 
 impl RenderStats {
@@ -67,6 +71,7 @@ impl RenderStats {
             samples,
             shadow_rays,
             capacity_drops,
+            secondary_capacity_drops,
         } = other;
         self.camera_rays += camera_rays;
         self.camera_segments += camera_segments;
@@ -84,6 +89,7 @@ impl RenderStats {
         self.samples += samples;
         self.shadow_rays += shadow_rays;
         self.capacity_drops += capacity_drops;
+        self.secondary_capacity_drops += secondary_capacity_drops;
     }
 
     /// `(name, value)` pairs in a fixed order, for logs and EXR header attributes.

@@ -194,7 +194,10 @@ impl Walk<'_> {
                 throughput: beta,
             };
             stats.secondary_segments += 1;
+            let before = stats.capacity_drops;
             let light = scatter::single_scatter_by(scene, &secondary, self.model, sampler, stats);
+            stats.secondary_capacity_drops += stats.capacity_drops - before;
+            stats.capacity_drops = before;
             sum += beta * light;
             match medium.free_flight(hit.t, sampler.next_f64()) {
                 Flight::Scatter { t, weight } => {
@@ -244,6 +247,8 @@ impl Walk<'_> {
         }
     }
 }
+
+pub mod phase_sampling;
 
 #[cfg(test)]
 mod tests;

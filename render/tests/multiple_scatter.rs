@@ -4,17 +4,18 @@
 //!   atmosphere, whose reflected radiance is known exactly through the H-function; the
 //!   `multiple_scatter` layer must be the exact law minus its first order, the
 //!   `single_scatter` layer that first order.
-//! * η = 1.5: a glass ball of a scattering medium under a large sphere light, against a
-//!   brute-force volumetric path tracer written here, which finds the light only when a path
-//!   leaving the ball happens to hit it (phase sampling, stochastic Fresnel), counting the same
-//!   paths (two scatterings or more, the last connection to the light by one refraction): image
-//!   means within their standard errors and per-pixel χ² ≈ 1.
+//! * η = 1.5: a glass ball of a scattering medium under a large sphere light, against the
+//!   brute-force volumetric path tracer `multiple_scatter::phase_sampling`, which finds the light
+//!   only when a path leaving the ball happens to hit it (phase sampling, stochastic Fresnel,
+//!   its own optics), counting the same paths (two scatterings or more, the last connection to
+//!   the light by one refraction): image means within their standard errors and per-pixel
+//!   χ² ≈ 1.
 
 use std::f64::consts::PI;
 
-use glam::DVec3;
 use serde_json::{Value, json};
 use spindle_common::stats::RenderStats;
+use spindle_render::multiple_scatter::phase_sampling;
 use spindle_render::ray::Ray;
 use spindle_render::sampler::Sampler;
 use spindle_render::transport::radiance;
@@ -184,121 +185,6 @@ fn ball(method: &str) -> Scene {
     }))
 }
 
-/// Unpolarised Fresnel reflectance from index `n1` into `n2` at incidence cosine `c`.
-fn fresnel(n1: f64, n2: f64, c: f64) -> f64 {
-    let s = n1 / n2 * (1.0 - c * c).max(0.0).sqrt();
-    if s >= 1.0 {
-        return 1.0;
-    }
-    let ct = (1.0 - s * s).sqrt();
-    let rs = (n1 * c - n2 * ct) / (n1 * c + n2 * ct);
-    let rp = (n2 * c - n1 * ct) / (n2 * c + n1 * ct);
-    0.5 * (rs * rs + rp * rp)
-}
-
-/// Henyey–Greenstein per steradian, with `c` the cosine between the propagation directions.
-fn hg(c: f64) -> f64 {
-    (1.0 - G * G) / (4.0 * PI * (1.0 + G * G - 2.0 * G * c).powf(1.5))
-}
-
-/// A uniformly distributed unit vector.
-fn uniform_direction(u: [f64; 2]) -> DVec3 {
-    let z = 1.0 - 2.0 * u[0];
-    let r = (1.0 - z * z).max(0.0).sqrt();
-    let phi = 2.0 * PI * u[1];
-    DVec3::new(r * phi.cos(), r * phi.sin(), z)
-}
-
-/// The brute-force estimate of one camera sample: the radiance that scattered at least twice in
-/// the ball and reached the light straight after a refraction out of it, found only by a
-/// leaving path hitting the light. Interfaces choose reflection with the Fresnel probability;
-/// before the first scattering at most `internal_reflections` = 2 internal reflections (the
-/// camera path's rule), after it at most `max_depth` = 8; a path whose last scattering is
-/// followed by an internal reflection does not count (the light's connection is one refraction).
-fn brute_force(scene: &Scene, mut ray: Ray, rng: &mut Sampler) -> f64 {
-    let bvh = scene.bvh();
-    let mesh = &scene.objects()[0].mesh;
-    let light = &scene.lights()[0];
-    let mut weight = 1.0;
-    let mut inside = false;
-    let (mut scatterings, mut internal, mut reflections) = (0u32, 0u32, 0u32);
-    let mut reflected_since_scattering = false;
-    loop {
-        let Some(hit) = bvh.closest_hit(&ray) else {
-            return 0.0;
-        };
-        if !inside {
-            // Toward the ball from the air: a light in front of it ends the path (not scattering).
-            if let Some((t, _)) = light.intersect(&ray)
-                && t < hit.t
-            {
-                return 0.0;
-            }
-        }
-        if inside {
-            let t = -(1.0 - rng.next_f64()).ln() / SIGMA_T;
-            if t < hit.t {
-                weight *= ALBEDO;
-                scatterings += 1;
-                reflected_since_scattering = false;
-                let dir = uniform_direction(rng.next_2d());
-                // Propagation directions −dir (arriving) and −ray.dir (leaving toward the camera).
-                weight *= 4.0 * PI * hg(dir.dot(ray.dir));
-                ray = Ray::new(ray.at(t), dir);
-                continue;
-            }
-        }
-        let (_, triangle) = scene.locate(hit.triangle);
-        let p = mesh.point(triangle, hit.a, hit.b);
-        let ng = mesh.geometric_normal(triangle).normalize();
-        let ns = mesh.shading_normal(triangle, hit.a, hit.b);
-        let facing = if ray.dir.dot(ns) < 0.0 { ns } else { -ns };
-        let c = -ray.dir.dot(facing);
-        let (n1, n2) = if inside { (ETA, 1.0) } else { (1.0, ETA) };
-        let f = fresnel(n1, n2, c);
-        if rng.next_f64() < f {
-            let dir = ray.dir + 2.0 * c * facing;
-            if !inside {
-                return 0.0; // reflected off the outside: surface light only
-            }
-            if scatterings == 0 {
-                internal += 1;
-                if internal > 2 {
-                    return 0.0;
-                }
-            } else {
-                reflections += 1;
-                if reflections > 8 {
-                    return 0.0;
-                }
-                reflected_since_scattering = true;
-            }
-            let off = if dir.dot(ng) < 0.0 { -ng } else { ng };
-            ray = Ray::new(p + off * 1e-9, dir);
-            continue;
-        }
-        // Refraction (Snell, written out).
-        let ratio = n1 / n2;
-        let ct = (1.0 - ratio * ratio * (1.0 - c * c)).sqrt();
-        let dir = (ratio * ray.dir + (ratio * c - ct) * facing).normalize();
-        let off = if dir.dot(ng) < 0.0 { -ng } else { ng };
-        ray = Ray::new(p + off * 1e-9, dir);
-        if !inside {
-            weight /= ETA * ETA;
-            inside = true;
-            continue;
-        }
-        weight *= ETA * ETA;
-        if scatterings < 2 || reflected_since_scattering {
-            return 0.0;
-        }
-        return match light.intersect(&ray) {
-            Some((_, emitted)) => weight * emitted.x,
-            None => 0.0,
-        };
-    }
-}
-
 /// Per-pixel means and standard errors of `estimate` over `spp` samples per pixel.
 fn per_pixel(
     scene: &Scene,
@@ -330,7 +216,7 @@ fn a_glass_ball_matches_a_brute_force_path_tracer() {
     let reference = ball("auto");
     let clock = std::time::Instant::now();
     let brute = per_pixel(&reference, 16_384, |ray, rng| {
-        brute_force(&reference, ray, rng)
+        phase_sampling::estimate(&reference, ray, rng).x
     });
     println!("brute force: {:.1} s", clock.elapsed().as_secs_f64());
     let (b_mean, b_err) = image_mean(&brute);

@@ -10,7 +10,8 @@ const HEIGHT: u32 = 8;
 
 /// A small icosphere and a small bumpy sphere side by side (80 triangles each, η = 1.5, HG
 /// g = 0.3, absorbing, coloured σ_t), one point light, 1 spp, only the first segment inside each
-/// object (`max_depth` 1), with the given `single_scatter` settings.
+/// object (`max_depth` 1), with the given `single_scatter` settings and no multiple scattering
+/// (its secondary segments would run the same, here brute-force, model: only time).
 fn scene(single_scatter: &str) -> Scene {
     let json = format!(
         r#"{{
@@ -31,7 +32,8 @@ fn scene(single_scatter: &str) -> Scene {
                    "phase": {{ "type": "hg", "g": 0.3 }} }} }} }}
         ],
         "integrator": {{ "max_depth": 1, "internal_reflections": 0,
-                         "single_scatter": {single_scatter} }}
+                         "single_scatter": {single_scatter},
+                         "multiple_scatter": {{ "max_order": 1 }} }}
     }}"#
     );
     let desc: SceneDescription = serde_json::from_str(&json).expect("test scene parses");

@@ -113,12 +113,12 @@ fn adaptive_sampling_stops_at_the_target() {
         if seed == 0 {
             let tile = render_tile(&scene, WHOLE);
             for (i, p) in pixels.iter().enumerate() {
-                let total = p.radiance.surface + p.radiance.single_scatter;
+                let total = p.radiance.total();
                 assert_eq!(total.x as f32, tile.total[3 * i], "pixel {i} differs alone");
             }
         }
         for (i, p) in pixels.iter().enumerate() {
-            let total = p.radiance.surface + p.radiance.single_scatter;
+            let total = p.radiance.total();
             luminance[i].push(0.2126 * total.x + 0.7152 * total.y + 0.0722 * total.z);
             taken[i] += p.stats.camera_rays;
         }
