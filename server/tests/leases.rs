@@ -387,7 +387,7 @@ async fn a_deterministic_failure_confirmed_by_a_second_worker_fails_the_job_and_
         c.register("beta").await,
         c.register("gamma").await,
     ];
-    let before = spindle_server::jobs::now_ms();
+    let before = spindle_server::clock::now_ms();
     let lease = c.lease(workers[0]).await.unwrap();
     let reason = "the scene does not build: objects[0].shape: face index 9 out of range";
     fail_with(&c, &lease, workers[0], reason, true).await;
@@ -733,7 +733,7 @@ async fn a_lease_kept_alive_by_heartbeats_alone_is_taken_back_at_its_greatest_ag
     let (squatter, honest) = (c.register("squatter").await, c.register("honest").await);
     let lease = c.lease(squatter).await.unwrap();
     // Heartbeats every half TTL and nothing else, for up to three times the greatest age.
-    let greatest = ttl * spindle_server::jobs::MAX_LEASE_AGE_TTLS;
+    let greatest = ttl * spindle_server::ledger::rules::MAX_LEASE_AGE_TTLS;
     let started = std::time::Instant::now();
     let refused = loop {
         let (status, _) = c

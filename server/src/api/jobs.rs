@@ -22,7 +22,7 @@ use crate::auth::Role;
 use crate::error::Error;
 use crate::extract::JsonBody;
 use crate::extract::{ApiPath, RawBody, parse_json};
-use crate::jobs::{JobFilter, NewJob};
+use crate::ledger::jobs::{JobFilter, NewJob};
 
 pub(super) fn routes() -> Declared {
     vec![

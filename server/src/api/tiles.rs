@@ -23,7 +23,7 @@ use crate::auth::Role;
 use crate::db::{self, TileRowState};
 use crate::error::Error;
 use crate::extract::ApiPath;
-use crate::jobs::TileStatus;
+use crate::ledger::tile::TileStatus;
 
 pub(super) fn routes() -> Declared {
     vec![(Role::Client, routes!(job_tiles))]

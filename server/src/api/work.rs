@@ -340,7 +340,7 @@ async fn fail_tile(
 
 /// The previous progressive pass's result of a tile whose current pass the calling worker
 /// holds (a job with `film.time_budget_s`): the stored `TilePixels` with its `progress`, in the
-/// compact form of uploads, from which the worker continues the tile ([`crate::passes`]).
+/// compact form of uploads, from which the worker continues the tile ([`crate::ledger::passes`]).
 #[utoipa::path(get, path = "/v1/leases/{job}/{tile}/previous",
     params(("job" = u64, Path, description = "job id"), ("tile" = u32, Path, description = "tile index")),
     responses((status = 200, description = "the previous pass's TilePixels, MessagePack compressed with zstd",
