@@ -21,7 +21,11 @@
 //!   tile failed on [`TILE_FAILURE_LIMIT`] different workers, when [`JOB_FAILURE_LIMIT`] tile
 //!   failures add up in the job, or when no connected worker may take a tile that failed (every
 //!   connected worker failed it or is kept off the job). With no worker connected at all, jobs
-//!   wait: there is nobody to judge by.
+//!   wait: there is nobody to judge by. So with one connected worker its report of a tile's
+//!   failure, deterministic or not, fails the job at once: nobody else may take the tile, to
+//!   confirm the claim or to do better (Flamenco's rule: a job no worker is left to complete
+//!   fails), where waiting would leave a one-worker farm (`spindle render --workers 1`)
+//!   hanging on a scene that does not build.
 //! - A worker is connected while it is in a lease poll, and for one lease TTL after any request.
 //! - A job with `requires` is leased only to workers whose labels include every requirement;
 //!   a draining worker is leased nothing (410) and its heartbeats answer `drain`. Only workers
