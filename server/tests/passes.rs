@@ -288,15 +288,12 @@ async fn a_job_failed_at_the_end_of_a_pass_is_leased_again_once_requeued() {
     let w = c.register("w").await;
     refuse_next_passes(dir.path());
     upload_all(&c, job.id, w, &lease_all(&c, w).await).await;
-    let mut state = JobState::Running;
-    for _ in 0..200 {
-        state = c.job(job.id).await.state;
-        if state.is_finished() {
-            break;
-        }
-        tokio::time::sleep(Duration::from_millis(100)).await;
-    }
-    assert_eq!(state, JobState::Failed, "the pass end failed for good");
+    let failed = c.wait_finished(job.id).await;
+    assert_eq!(
+        failed.state,
+        JobState::Failed,
+        "the pass end failed for good"
+    );
     allow_next_passes(dir.path());
     control(&c, job.id, "requeue").await;
     assert_eq!(c.job(job.id).await.state, JobState::Queued);
