@@ -368,3 +368,22 @@ fn a_mirroring_node_keeps_front_faces_front() {
         }
     }
 }
+
+/// `scenes/glass-cube.gltf`, the example glTF scene, is this file's test scene, so what the
+/// tests above check holds for it. `SPINDLE_BLESS=1 cargo test -p spindle-import` rewrites it
+/// after a change to `support::glass_cube`.
+#[test]
+fn the_example_glass_cube_is_the_test_scene() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/glass-cube.gltf");
+    let text = serde_json::to_string_pretty(&glass_cube()).unwrap() + "\n";
+    if std::env::var_os("SPINDLE_BLESS").is_some() {
+        std::fs::write(&path, &text).unwrap();
+    }
+    let on_disk = std::fs::read_to_string(&path).unwrap_or_default();
+    assert!(
+        on_disk == text,
+        "{} differs from support::glass_cube(): rewrite it with SPINDLE_BLESS=1 cargo test -p \
+         spindle-import",
+        path.display()
+    );
+}
