@@ -218,11 +218,40 @@ fn check_accessor(
             format!("{what} of {element}: must be at least 1"),
         ));
     }
-    if accessor.sparse().is_some() || accessor.view().is_none() {
+    let Some(view) = accessor.view().filter(|_| accessor.sparse().is_none()) else {
         return Err(ImportError::new(
             name,
             format!(
-                "{what} of {element}: sparse accessors (or none with no bufferView) are not supported"
+                "{what} of {element}: sparse accessors (or none with no bufferView) are not \
+                 supported"
+            ),
+        ));
+    };
+    let view_end = view.offset() as u128 + view.length() as u128;
+    if view_end > view.buffer().length() as u128 {
+        return Err(ImportError::new(
+            format!("bufferViews[{}]", view.index()),
+            format!(
+                "reaches byte {view_end} of buffers[{}], which has {}",
+                view.buffer().index(),
+                view.buffer().length()
+            ),
+        ));
+    }
+    // offset + stride·(count − 1) + size ≤ the view's length, in arithmetic that cannot
+    // overflow (a hostile count must not wrap around to a short read).
+    let size = accessor.size() as u128;
+    let stride = view.stride().map_or(size, |s| s as u128);
+    let end = accessor.offset() as u128 + stride * (accessor.count() as u128 - 1) + size;
+    if end > view.length() as u128 {
+        return Err(ImportError::new(
+            name,
+            format!(
+                "{what} of {element}: {} elements reach byte {end} of bufferViews[{}], which \
+                 has {}",
+                accessor.count(),
+                view.index(),
+                view.length()
             ),
         ));
     }

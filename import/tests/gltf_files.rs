@@ -333,6 +333,21 @@ fn bad_files_are_refused_naming_the_gltf_element() {
         "{error}"
     );
 
+    // A count far past the data (it must not wrap around to a short read).
+    let mut document = glass_cube();
+    document["accessors"][4]["count"] = json!(1u64 << 62);
+    let error = refused(&document);
+    assert_eq!(error.element, "accessors[4]");
+    assert!(error.problem.contains("elements reach byte"), "{error}");
+
+    // A buffer view past the end of its buffer.
+    let mut document = glass_cube();
+    let length = document["buffers"][0]["byteLength"].as_u64().unwrap();
+    document["bufferViews"][4]["byteLength"] = json!(length);
+    let error = refused(&document);
+    assert_eq!(error.element, "bufferViews[4]");
+    assert!(error.problem.contains("of buffers[0]"), "{error}");
+
     // A light outside spindle's extent: spindle's own rule, named by the light's node.
     let mut document = glass_cube();
     document["nodes"][5]["translation"] = json!([2.0e6, 0.0, 0.0]);
