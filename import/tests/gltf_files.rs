@@ -402,3 +402,27 @@ fn the_example_glass_cube_is_the_test_scene() {
         path.display()
     );
 }
+
+#[test]
+fn a_buffer_in_a_file_beside_the_gltf_is_read_by_its_escaped_uri() {
+    use base64::Engine;
+    let mut document = glass_cube();
+    let uri = document["buffers"][0]["uri"].as_str().unwrap().to_string();
+    let payload = uri.split_once(";base64,").unwrap().1;
+    let bytes = base64::engine::general_purpose::STANDARD
+        .decode(payload)
+        .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("scene data.bin"), &bytes).unwrap();
+    document["buffers"][0]["uri"] = json!("scene%20data.bin");
+    let path = write(dir.path(), &document);
+    let from_file = import_gltf(&path, &Options::default()).unwrap();
+    let inline = import(&glass_cube(), None).unwrap();
+    assert_eq!(from_file.files.desc, inline.files.desc);
+    assert_eq!(from_file.files.assets, inline.files.assets);
+    // One byte short of byteLength: refused, naming the buffer.
+    std::fs::write(dir.path().join("scene data.bin"), &bytes[..bytes.len() - 1]).unwrap();
+    let error = import_gltf(&path, &Options::default()).err().unwrap();
+    assert_eq!(error.element, "buffers[0]");
+    assert!(error.problem.contains("byteLength"), "{error}");
+}
