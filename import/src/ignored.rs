@@ -42,11 +42,6 @@ impl Ignored {
         }
     }
 
-    /// Whether anything of `kind` was left out.
-    pub fn has(&self, kind: &str) -> bool {
-        self.kinds.contains_key(kind)
-    }
-
     /// One line per kind: `glTF: <kind> ignored: a, b, c` (at most [`MAX_NAMED`] named, then a
     /// count of the rest).
     pub fn warnings(&self) -> Vec<String> {
