@@ -164,6 +164,7 @@ mod tests {
                     &api,
                     scene,
                     None,
+                    None,
                     crate::submit::Check::AlreadyBuilt,
                     &crate::submit::JobOptions {
                         tile_size: 16,

@@ -10,6 +10,7 @@ mod local_farm;
 mod meter;
 mod progress;
 mod render;
+mod scene_input;
 mod secret;
 mod status;
 mod submit;

@@ -24,15 +24,20 @@ use spindle_common::tile::TileRect;
 use spindle_common::tile::{LAYERS, Layer};
 use spindle_render::{Scene, provenance, render_pixel};
 
-use spindle_common::scene_files::{load_scene, read_meshes};
+use spindle_common::scene_files::read_meshes;
 
 use crate::meter::{Meter, Show};
 
 /// `spindle render` options.
 #[derive(Debug, clap::Args)]
 pub struct RenderArgs {
-    /// The scene file (JSON); OBJ paths in it are relative to it.
+    /// The scene file: spindle's JSON (OBJ paths in it are relative to it) or glTF 2.0
+    /// (`.gltf`, `.glb`; converted as scenes/README.md, "glTF scenes", says).
     pub scene: PathBuf,
+    /// For a glTF scene: the camera to render through, by the name of its node or of the
+    /// camera (default: the first camera in the scene's node order).
+    #[arg(long, value_name = "NAME")]
+    pub camera: Option<String>,
     /// The image to write: `OUT.exr` (OpenEXR, with the tone-mapped PNG preview beside it as
     /// `OUT.png`) or `OUT.png` (the preview alone). Optional with `--pixel`.
     #[arg(short, long, required_unless_present = "pixel")]
@@ -293,7 +298,7 @@ pub fn refuse_unlit_media(
 async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
     let started = Instant::now();
     // Read and check the scene here first, so a mistake is reported before any farm starts.
-    let mut files = load_scene(&args.scene)?;
+    let mut files = crate::scene_input::load(&args.scene, args.camera.as_deref(), !args.quiet)?;
     args.edit(&mut files.desc)?;
     read_meshes(&args.scene, &files.desc, &mut files.assets)?;
     let mut desc = files.desc.clone();
@@ -319,6 +324,7 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
         crate::submit::submit_scene_file(
             &api,
             &args.scene,
+            args.camera.as_deref(),
             Some(&edit),
             crate::submit::Check::AlreadyBuilt,
             &crate::submit::JobOptions {
@@ -389,7 +395,7 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
 /// `--workers 0`: in this process, with rayon over the current pool (`--threads`).
 fn in_process(args: &RenderArgs) -> Result<()> {
     let started = Instant::now();
-    let mut files = load_scene(&args.scene)?;
+    let mut files = crate::scene_input::load(&args.scene, args.camera.as_deref(), !args.quiet)?;
     args.edit(&mut files.desc)?;
     read_meshes(&args.scene, &files.desc, &mut files.assets)?;
     let scene = Scene::build(&files.desc, &files.assets)

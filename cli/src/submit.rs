@@ -1,4 +1,4 @@
-//! `spindle submit SCENE.json [--wait]`: send a scene and its meshes to a coordinator.
+//! `spindle submit SCENE.json|SCENE.glb [--wait]`: send a scene and its meshes to a coordinator.
 //!
 //! The scene is built here first, exactly as `spindle render --workers 0` builds it (meshes
 //! included), so a scene no worker could build is refused with the same message before
@@ -20,13 +20,18 @@ use spindle_common::scene_override::{Override, apply_overrides};
 use crate::api::Api;
 use crate::progress::{Wait, wait_for};
 use crate::secret::random_hex;
-use spindle_common::scene_files::{load_scene, read_meshes};
+use spindle_common::scene_files::read_meshes;
 
 /// `spindle submit` options.
 #[derive(Debug, clap::Args)]
 pub struct SubmitArgs {
-    /// The scene file (JSON); OBJ paths in it are relative to it.
+    /// The scene file: spindle's JSON (OBJ paths in it are relative to it) or glTF 2.0
+    /// (`.gltf`, `.glb`), converted here: the coordinator receives a spindle scene.
     pub scene: std::path::PathBuf,
+    /// For a glTF scene: the camera to render through, by the name of its node or of the
+    /// camera (default: the first camera in the scene's node order).
+    #[arg(long, value_name = "NAME")]
+    pub camera: Option<String>,
     /// Wait for the job to finish, showing its progress.
     #[arg(long)]
     pub wait: bool,
@@ -103,7 +108,15 @@ pub async fn run(api: &Api, args: &SubmitArgs) -> Result<()> {
     let check = Check::Build {
         allow_blocked: args.allow_blocked,
     };
-    let job = submit_scene_file(api, &args.scene, Some(&edit), check, &options).await?;
+    let job = submit_scene_file(
+        api,
+        &args.scene,
+        args.camera.as_deref(),
+        Some(&edit),
+        check,
+        &options,
+    )
+    .await?;
     println!("{}", job.id);
     if args.wait {
         let end = wait_for(api, job.id, Wait::default()).await?;
@@ -141,16 +154,20 @@ pub struct JobOptions {
 /// which may refuse it.
 pub type SceneEdit<'a> = dyn Fn(&mut SceneDescription) -> Result<()> + 'a;
 
-/// Reads the scene file and its meshes, uploads the meshes the coordinator lacks, and submits
-/// the job. `edit` may change the scene before it is sent (the local farm's `--spp`/`--seed`).
+/// Reads the scene file and its meshes (a glTF file converted, through `camera` when named),
+/// uploads the meshes the coordinator lacks, and submits the job. `edit` may change the scene
+/// before it is sent (the local farm's `--spp`/`--seed`).
 pub async fn submit_scene_file(
     api: &Api,
     scene_path: &Path,
+    camera: Option<&str>,
     edit: Option<&SceneEdit<'_>>,
     check: Check,
     options: &JobOptions,
 ) -> Result<JobInfo> {
-    let mut files = load_scene(scene_path)?;
+    // After `Check::AlreadyBuilt` the caller has read the scene and said its warnings.
+    let warn = matches!(check, Check::Build { .. });
+    let mut files = crate::scene_input::load(scene_path, camera, warn)?;
     if let Some(edit) = edit {
         edit(&mut files.desc)?;
         read_meshes(scene_path, &files.desc, &mut files.assets)?;
