@@ -228,7 +228,7 @@ fn a_glass_ball_matches_a_brute_force_path_tracer() {
         let scene = ball(method);
         let mut stats = RenderStats::default();
         let clock = std::time::Instant::now();
-        let ours = per_pixel(&scene, 256, |ray, sampler| {
+        let ours = per_pixel(&scene, 128, |ray, sampler| {
             radiance(&scene, &ray, sampler, &mut stats)
                 .multiple_scatter
                 .x
@@ -247,7 +247,7 @@ fn a_glass_ball_matches_a_brute_force_path_tracer() {
              {b_err:.1e} (z {z:+.2}, {:+.2} %), χ²/pixel {chi2:.2}; {:.1} secondary segments \
              per sample",
             100.0 * (o_mean / b_mean - 1.0),
-            stats.secondary_segments as f64 / (36.0 * 256.0)
+            stats.secondary_segments as f64 / (36.0 * 128.0)
         );
         if agrees {
             assert!(
