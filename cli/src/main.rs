@@ -81,7 +81,7 @@ enum Command {
     Submit(OnFarm<submit::SubmitArgs>),
     /// Show one job, or every job.
     Status(OnFarm<status::StatusArgs>),
-    /// List jobs (filter by state or name), oldest first.
+    /// List jobs (filter by state or name), newest first, with progress and ETA.
     Jobs(OnFarm<jobs::JobsArgs>),
     /// Pause a job: no new tiles are handed out; tiles in progress finish.
     Pause(OnFarm<control::JobArg>),
