@@ -9,7 +9,7 @@
 //!
 //! Admission reads only the request and stored assets (never a client's file paths) and
 //! answers a refusal as a 400 naming the offending field. The limit on jobs queued or running
-//! is checked when the job is stored ([`crate::jobs::Ledger::submit`]), under the same lock
+//! is checked when the job is stored ([`crate::ledger::Ledger::submit`]), under the same lock
 //! as the insertion.
 
 use std::collections::HashMap;

@@ -15,7 +15,7 @@
 //! truncated, altered) goes back to the queue to be rendered again, and any other error (I/O,
 //! a full disk) is retried with backoff until it passes; a restarted coordinator resumes. A
 //! budgeted job's tiles are all in at the end of each of its passes: [`finish`] first ends the
-//! pass (the same backoff, a bounded number of times: [`crate::passes`]), and assembles only
+//! pass (the same backoff, a bounded number of times: [`crate::ledger::passes`]), and assembles only
 //! after the last. Only [`finish`] is async; the rest blocks and runs under `spawn_blocking`.
 
 use std::time::Duration;
@@ -28,9 +28,9 @@ use spindle_common::stats::RenderStats;
 use spindle_common::header::RenderFacts;
 
 use crate::AppState;
+use crate::clock::now_ms;
 use crate::error::Error;
-use crate::jobs::now_ms;
-use crate::passes::{PASS_END_ATTEMPTS, PassEnd};
+use crate::ledger::pass_end::{PASS_END_ATTEMPTS, PassEnd};
 use crate::tile_store::{ReadError, TileStore};
 
 /// First and longest pause before assembly is tried again after an error that may pass.
@@ -134,7 +134,7 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 }
 
 /// Ends the pass of budgeted job `id`, whose tiles are all in
-/// ([`crate::jobs::Ledger::end_of_pass`]), retrying an error with backoff; after
+/// ([`crate::ledger::Ledger::end_of_pass`]), retrying an error with backoff; after
 /// [`PASS_END_ATTEMPTS`] failed, fails the job with the reason. Returns whether the job is
 /// complete and may be assembled.
 async fn end_pass(state: &AppState, id: u64) -> bool {

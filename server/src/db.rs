@@ -2,7 +2,7 @@
 //! tile failures.
 //!
 //! The database is the truth a restarted coordinator resumes from; the in-memory ledger
-//! ([`crate::jobs::Ledger`]) mirrors it and every change is written here first. WAL with
+//! ([`crate::ledger::Ledger`]) mirrors it and every change is written here first. WAL with
 //! `synchronous = NORMAL`: a commit survives the process being killed at any moment (it is in
 //! the OS's page cache) without an fsync per tile. Schema changes are numbered migrations
 //! applied in order and tracked with `PRAGMA user_version`.

@@ -27,8 +27,8 @@ use std::time::Duration;
 use spindle_common::protocol::{EventKind, FarmEvent};
 use tokio::sync::broadcast;
 
+use crate::clock::now_ms;
 use crate::error::Error;
-use crate::jobs::now_ms;
 
 /// Events kept for reconnecting clients.
 pub const EVENT_RING: usize = 1024;

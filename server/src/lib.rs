@@ -13,18 +13,17 @@ pub mod assemble;
 pub mod assets;
 pub mod auth;
 pub mod checkpoint;
+pub mod clock;
 pub mod config;
 pub mod dashboard;
 pub mod db;
 pub mod error;
 pub mod events;
 pub mod extract;
-pub mod jobs;
-pub mod lease;
+pub mod ledger;
 pub mod limits;
 pub mod logging;
 pub mod metrics;
-pub mod passes;
 pub mod peers;
 pub mod retention;
 pub mod send_bound;
@@ -46,7 +45,7 @@ pub use config::{Args, Config, Retention, Timeouts};
 pub use limits::Limits;
 
 use assets::AssetStore;
-use jobs::Ledger;
+use ledger::Ledger;
 use tile_store::TileStore;
 
 /// Everything a request handler can reach; cheap to clone.

@@ -21,7 +21,7 @@ use metrics_exporter_prometheus::{Matcher, PrometheusBuilder, PrometheusHandle};
 use spindle_common::protocol::{JobState, Lease, TileOutcome, WorkerState};
 
 use crate::AppState;
-use crate::jobs::TileStatus;
+use crate::ledger::tile::TileStatus;
 
 /// Pending tiles of runnable (queued or running) jobs: the work waiting for a worker.
 pub const TILES_QUEUED: &str = "spindle_tiles_queued";

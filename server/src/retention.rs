@@ -9,8 +9,8 @@
 //! the job is deleted.
 
 use crate::AppState;
+use crate::clock::now_ms;
 use crate::config::Retention;
-use crate::jobs::now_ms;
 
 /// What one pass deleted.
 #[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]

@@ -18,7 +18,7 @@ use governor::{DefaultKeyedRateLimiter, Quota};
 
 use crate::AppState;
 use crate::error::Error;
-use crate::jobs::Ledger;
+use crate::ledger::Ledger;
 
 /// Addresses remembered before forgetting those whose allowance is full again.
 const REMEMBERED_ADDRESSES: usize = 4096;

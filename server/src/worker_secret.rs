@@ -6,7 +6,8 @@
 //! (ids and epochs are small integers). Registration therefore issues a per-worker secret,
 //! `<worker id>.<64 hex digits>` (256 bits from the operating system); the coordinator keeps
 //! only its SHA-256 (in the database, so it survives a restart) and compares digests in
-//! constant time. [`crate::auth::require`] turns the [`WORKER_SECRET_HEADER`] of a worker route
+//! constant time. The ledger keeps each worker's digest and checks a presented secret
+//! (`Ledger::authenticate`); [`crate::auth::require`] turns the [`WORKER_SECRET_HEADER`] of a worker route
 //! into a [`WorkerIdentity`]; handlers then refuse a worker id in the path or body that is not
 //! that identity (403), so a worker can touch its own leases only.
 //!
@@ -17,7 +18,6 @@ use axum::http::request::Parts;
 use sha2::{Digest, Sha256};
 
 use crate::error::Error;
-use crate::jobs::Ledger;
 
 /// A new worker secret and the digest the coordinator keeps of it.
 pub struct Issued {
@@ -40,6 +40,11 @@ pub fn issue(worker: u64) -> Result<Issued, Error> {
 /// The SHA-256 of a secret as presented.
 pub fn digest(secret: &str) -> [u8; 32] {
     Sha256::digest(secret.as_bytes()).into()
+}
+
+/// Is `presented` the secret whose digest is `expected`? Compared in constant time.
+pub fn matches(presented: &str, expected: &[u8; 32]) -> bool {
+    constant_time_eq::constant_time_eq_32(&digest(presented), expected)
 }
 
 /// The worker a request's secret proved it is; put in the request's extensions by
@@ -74,42 +79,7 @@ impl<S: Send + Sync> FromRequestParts<S> for WorkerIdentity {
 }
 
 /// How messages name the header.
-const WORKER_SECRET: &str = "the Spindle-Worker-Secret header from POST /v1/workers";
-
-impl Ledger {
-    /// The worker whose secret `presented` is: 403 if it is missing, malformed or wrong; 404 if
-    /// the worker is not (or no longer) registered, or registered before secrets existed — it
-    /// registers again.
-    pub fn authenticate(&self, presented: Option<&str>) -> Result<WorkerIdentity, Error> {
-        let Some(presented) = presented else {
-            return Err(Error::Forbidden(format!(
-                "missing worker secret ({WORKER_SECRET})"
-            )));
-        };
-        let Some(worker) = presented
-            .split_once('.')
-            .and_then(|(id, _)| id.parse::<u64>().ok())
-        else {
-            return Err(Error::Forbidden(format!(
-                "malformed worker secret ({WORKER_SECRET})"
-            )));
-        };
-        self.check_worker(worker)?;
-        let Some(expected) = self.workers[&worker].secret_sha256 else {
-            return Err(Error::NotFound(format!(
-                "worker {worker} registered before worker secrets existed: register again \
-                 (POST /v1/workers)"
-            )));
-        };
-        if constant_time_eq::constant_time_eq_32(&digest(presented), &expected) {
-            Ok(WorkerIdentity(worker))
-        } else {
-            Err(Error::Forbidden(format!(
-                "wrong worker secret for worker {worker} ({WORKER_SECRET})"
-            )))
-        }
-    }
-}
+pub(crate) const WORKER_SECRET: &str = "the Spindle-Worker-Secret header from POST /v1/workers";
 
 #[cfg(test)]
 mod tests {

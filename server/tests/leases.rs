@@ -387,7 +387,7 @@ async fn a_deterministic_failure_confirmed_by_a_second_worker_fails_the_job_and_
         c.register("beta").await,
         c.register("gamma").await,
     ];
-    let before = spindle_server::jobs::now_ms();
+    let before = spindle_server::clock::now_ms();
     let lease = c.lease(workers[0]).await.unwrap();
     let reason = "the scene does not build: objects[0].shape: face index 9 out of range";
     fail_with(&c, &lease, workers[0], reason, true).await;
@@ -722,6 +722,34 @@ async fn one_workers_deterministic_failure_is_a_claim_that_a_second_worker_confi
     );
 }
 
+/// docs/promises.md: with one connected worker nobody can confirm its claim or do better, so
+/// its report fails the job at once, naming the tile, the worker and its reason, instead of
+/// leaving the job waiting for a worker that may never come.
+#[tokio::test]
+async fn the_only_connected_workers_deterministic_failure_fails_the_job_naming_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = Coordinator::open(config(dir.path())).await;
+    let job = c
+        .submit(json!({"scene": scene(8, 8), "tile_size": 8}))
+        .await;
+    let alone = c.register("alone").await;
+    let lease = c.lease(alone).await.unwrap();
+    let reason = "the scene does not build: objects[0].shape: face index 9 out of range";
+    fail_with(&c, &lease, alone, reason, true).await;
+    let info = c.job(job.id).await;
+    assert_eq!(info.state, JobState::Failed, "{info:?}");
+    assert_eq!(info.workers_live, 1);
+    let error = info.error.unwrap();
+    assert_eq!(
+        error,
+        format!(
+            "tile 0 (8 × 8 pixels at x 0, y 0) failed on alone ({alone}) and no other connected \
+             worker may take it; last error: {reason} (worker alone)"
+        )
+    );
+    assert!(c.lease(alone).await.is_none(), "nothing more is handed out");
+}
+
 #[tokio::test]
 async fn a_lease_kept_alive_by_heartbeats_alone_is_taken_back_at_its_greatest_age() {
     let dir = tempfile::tempdir().unwrap();
@@ -733,7 +761,7 @@ async fn a_lease_kept_alive_by_heartbeats_alone_is_taken_back_at_its_greatest_ag
     let (squatter, honest) = (c.register("squatter").await, c.register("honest").await);
     let lease = c.lease(squatter).await.unwrap();
     // Heartbeats every half TTL and nothing else, for up to three times the greatest age.
-    let greatest = ttl * spindle_server::jobs::MAX_LEASE_AGE_TTLS;
+    let greatest = ttl * spindle_server::ledger::rules::MAX_LEASE_AGE_TTLS;
     let started = std::time::Instant::now();
     let refused = loop {
         let (status, _) = c

@@ -277,6 +277,32 @@ async fn an_end_of_pass_that_keeps_failing_fails_the_job_with_the_reason() {
     }
 }
 
+/// A job failed while it was being assembled (its pass could not be ended) is requeued like
+/// any failed job: its tiles are leased again and it renders to its end, rather than staying
+/// queued with nothing handed out.
+#[tokio::test]
+async fn a_job_failed_at_the_end_of_a_pass_is_leased_again_once_requeued() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = Coordinator::open(cfg(dir.path())).await;
+    let job = c.submit(budgeted(16, 3600.0)).await;
+    let w = c.register("w").await;
+    refuse_next_passes(dir.path());
+    upload_all(&c, job.id, w, &lease_all(&c, w).await).await;
+    let failed = c.wait_finished(job.id).await;
+    assert_eq!(
+        failed.state,
+        JobState::Failed,
+        "the pass end failed for good"
+    );
+    allow_next_passes(dir.path());
+    control(&c, job.id, "requeue").await;
+    assert_eq!(c.job(job.id).await.state, JobState::Queued);
+    assert!(
+        c.lease(w).await.is_some(),
+        "the requeued job hands out its tiles"
+    );
+}
+
 /// Pauses or resumes job `id` (`action`: "pause" or "resume").
 async fn control(c: &Coordinator, id: u64, action: &str) {
     let (status, info) = c

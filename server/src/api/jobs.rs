@@ -1,5 +1,5 @@
-//! The job routes clients use: submit, list, inspect, pause, resume, requeue, reprioritise,
-//! cancel, delete, and fetch the image.
+//! The job routes: clients submit, list, inspect, pause, resume, requeue, reprioritise,
+//! cancel, delete, and fetch the image; workers read a job's spec.
 
 use axum::Json;
 use axum::extract::rejection::QueryRejection;
@@ -9,8 +9,8 @@ use axum::response::{IntoResponse, Response};
 use base64::Engine;
 use serde::Deserialize;
 use spindle_common::protocol::{
-    ApiError, DEFAULT_JOB_PAGE, IDEMPOTENCY_KEY_HEADER, JobInfo, JobList, JobPatch, JobState,
-    MAX_JOB_PAGE, SubmitJob, check_labels, check_name,
+    ApiError, DEFAULT_JOB_PAGE, IDEMPOTENCY_KEY_HEADER, JobInfo, JobList, JobPatch, JobSpec,
+    JobState, MAX_JOB_PAGE, SubmitJob, check_labels, check_name,
 };
 use utoipa_axum::routes;
 
@@ -22,7 +22,7 @@ use crate::auth::Role;
 use crate::error::Error;
 use crate::extract::JsonBody;
 use crate::extract::{ApiPath, RawBody, parse_json};
-use crate::jobs::{JobFilter, NewJob};
+use crate::ledger::jobs::{JobFilter, NewJob};
 
 pub(super) fn routes() -> Declared {
     vec![
@@ -37,6 +37,7 @@ pub(super) fn routes() -> Declared {
         (Role::Client, routes!(patch_job)),
         (Role::Client, routes!(image_exr)),
         (Role::Client, routes!(image_png)),
+        (Role::Worker, routes!(job_spec)),
     ]
 }
 
@@ -378,4 +379,15 @@ async fn image_png(
     .await
     .map_err(anyhow::Error::from)??;
     Ok(([(header::CONTENT_TYPE, "image/png")], png).into_response())
+}
+
+/// What a worker needs to render a job's tiles.
+#[utoipa::path(get, path = "/v1/jobs/{id}/spec", params(("id" = u64, Path, description = "job id")),
+    responses((status = 200, body = JobSpec), (status = 404, body = ApiError)))]
+async fn job_spec(
+    State(state): State<AppState>,
+    ApiPath(id): ApiPath<u64>,
+) -> Result<Json<JobSpec>, Error> {
+    let spec = state.ledger().job(id)?.spec.clone();
+    Ok(Json((*spec).clone()))
 }

@@ -6,18 +6,19 @@
 //! [`router`] registers every listed handler with `utoipa_axum`, which routes the path and
 //! documents it in one step. So the router and the document cannot disagree, and a role is
 //! written once: it selects both the bearer-token middleware and the document's security
-//! requirement. Modules: `service`, `assets`, `jobs` (client job routes), `tiles` (a job's
-//! tile map), `events` (the live
-//! event stream), `workers` (the
-//! operators' worker routes), `work` (the routes workers call). The request and response
-//! shapes are documented in `spindle_common::protocol`.
+//! requirement. One module per resource, whoever calls it (as crates.io's
+//! `controllers/<resource>/`): `service` (health, readiness, the document), `assets`, `jobs`
+//! (a job, its image, and its spec for workers), `tiles` (a job's tile map and a tile's
+//! upload), `leases` (a worker's lease poll, heartbeat, failure report and previous pass),
+//! `events` (the live event stream), `workers` (registration, the list, drain). The request
+//! and response shapes are documented in `spindle_common::protocol`.
 
 mod assets;
 mod events;
 mod jobs;
+mod leases;
 mod service;
 mod tiles;
-mod work;
 mod workers;
 
 use std::sync::Arc;
@@ -191,7 +192,7 @@ fn routes_and_document(state: &AppState) -> (Router<AppState>, utoipa::openapi::
         tiles::routes(),
         events::routes(),
         workers::routes(),
-        work::routes(),
+        leases::routes(),
     ]
     .into_iter()
     .flatten()

@@ -1,19 +1,21 @@
-//! The worker routes operators use: list the workers and drain one. (The routes workers
-//! themselves call are in [`super::work`].)
+//! The worker routes: a worker registers itself (the worker token, [`Role::NewWorker`]);
+//! operators list the workers and drain one (the client token). (The routes a registered
+//! worker calls about its tiles are in [`super::leases`] and [`super::tiles`].)
 
 use axum::Json;
 use axum::extract::State;
-use spindle_common::protocol::{ApiError, WorkerList};
+use spindle_common::protocol::{ApiError, RegisterWorker, WorkerList, WorkerRegistered};
 use utoipa_axum::routes;
 
 use super::Declared;
 use crate::AppState;
 use crate::auth::Role;
 use crate::error::Error;
-use crate::extract::ApiPath;
+use crate::extract::{ApiPath, JsonBody};
 
 pub(super) fn routes() -> Declared {
     vec![
+        (Role::NewWorker, routes!(register_worker)),
         (Role::Client, routes!(list_workers)),
         (Role::Client, routes!(drain_worker)),
     ]
@@ -43,4 +45,31 @@ async fn drain_worker(
     // Lease polls of the drained workers wake and answer 410.
     state.work_available();
     Ok(Json(WorkerList { workers }))
+}
+
+/// Registers a worker: its id, and the secret its later requests carry.
+#[utoipa::path(post, path = "/v1/workers", request_body = RegisterWorker,
+    responses((status = 200, body = WorkerRegistered), (status = 400, body = ApiError),
+              (status = 429, body = ApiError, description = "--max-workers workers are registered and none is lost (Retry-After)")))]
+async fn register_worker(
+    State(state): State<AppState>,
+    JsonBody(request): JsonBody<RegisterWorker>,
+) -> Result<Json<WorkerRegistered>, Error> {
+    request.check().map_err(Error::BadRequest)?;
+    let max_workers = state.config().max_workers;
+    let (worker_id, worker_secret) = state
+        .with_ledger(move |ledger| {
+            ledger.register_worker(
+                &request.name,
+                request.threads,
+                &request.version,
+                request.labels,
+                max_workers,
+            )
+        })
+        .await?;
+    Ok(Json(WorkerRegistered {
+        worker_id,
+        worker_secret,
+    }))
 }

@@ -1,19 +1,18 @@
-//! The routes workers use: register, lease a tile, read its job, renew the lease, upload the
-//! result or report a failure. Every route but registration is a registered worker's
-//! ([`Role::Worker`]): the worker id in its path or body must be the one its worker secret
-//! proves ([`WorkerIdentity::check`]), so no worker can touch another's leases.
+//! The lease routes workers call: ask for a tile (a long poll), renew its lease, report that
+//! it could not be rendered, and fetch the previous pass's result it continues. Every one is a
+//! registered worker's ([`Role::Worker`]): the worker id in its path or body must be the one
+//! its worker secret proves ([`WorkerIdentity::check`]), so no worker can touch another's
+//! leases. (The tile's result is uploaded with `PUT /v1/jobs/{job}/tiles/{tile}`, in
+//! [`super::tiles`].)
 
 use std::time::Duration;
 
 use axum::Json;
-use axum::body::Body;
 use axum::extract::State;
-use axum::http::{HeaderMap, StatusCode, header};
+use axum::http::{StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use spindle_common::protocol::{
-    ApiError, Heartbeat, HeartbeatAck, JobSpec, LEASE_EPOCH_HEADER, Lease, LeaseRequest,
-    MAX_LEASE_WAIT_MS, RegisterWorker, TileAck, TileFailure, TileUpload, WorkerRegistered,
-    pixel_hash,
+    ApiError, Heartbeat, HeartbeatAck, Lease, LeaseRequest, MAX_LEASE_WAIT_MS, TileFailure,
 };
 use spindle_common::tile_encoding;
 use tokio::time::Instant;
@@ -23,50 +22,18 @@ use super::Declared;
 use crate::AppState;
 use crate::auth::Role;
 use crate::error::Error;
-use crate::extract::{ApiPath, JsonBody, RawBody, parse_json, read_body};
+use crate::extract::{ApiPath, JsonBody, RawBody, parse_json};
 use crate::throttle;
 use crate::tile_store::ReadError;
 use crate::worker_secret::WorkerIdentity;
 
 pub(super) fn routes() -> Declared {
     vec![
-        (Role::NewWorker, routes!(register_worker)),
         (Role::Worker, routes!(lease)),
-        (Role::Worker, routes!(job_spec)),
         (Role::Worker, routes!(heartbeat)),
-        // The handler reads its body itself, within the tile's bound and
-        // `limits.max_tile_upload_bytes`.
-        (Role::Worker, routes!(upload_tile)),
         (Role::Worker, routes!(fail_tile)),
         (Role::Worker, routes!(previous_pass)),
     ]
-}
-
-/// Registers a worker: its id, and the secret its later requests carry.
-#[utoipa::path(post, path = "/v1/workers", request_body = RegisterWorker,
-    responses((status = 200, body = WorkerRegistered), (status = 400, body = ApiError),
-              (status = 429, body = ApiError, description = "--max-workers workers are registered and none is lost (Retry-After)")))]
-async fn register_worker(
-    State(state): State<AppState>,
-    JsonBody(request): JsonBody<RegisterWorker>,
-) -> Result<Json<WorkerRegistered>, Error> {
-    request.check().map_err(Error::BadRequest)?;
-    let max_workers = state.config().max_workers;
-    let (worker_id, worker_secret) = state
-        .with_ledger(move |ledger| {
-            ledger.register_worker(
-                &request.name,
-                request.threads,
-                &request.version,
-                request.labels,
-                max_workers,
-            )
-        })
-        .await?;
-    Ok(Json(WorkerRegistered {
-        worker_id,
-        worker_secret,
-    }))
 }
 
 /// Long-polls for a tile: 200 with a lease, or 204 when none came up within the wait.
@@ -154,17 +121,6 @@ impl Drop for Polling {
     }
 }
 
-/// What a worker needs to render a job's tiles.
-#[utoipa::path(get, path = "/v1/jobs/{id}/spec", params(("id" = u64, Path, description = "job id")),
-    responses((status = 200, body = JobSpec), (status = 404, body = ApiError)))]
-async fn job_spec(
-    State(state): State<AppState>,
-    ApiPath(id): ApiPath<u64>,
-) -> Result<Json<JobSpec>, Error> {
-    let spec = state.ledger().job(id)?.spec.clone();
-    Ok(Json((*spec).clone()))
-}
-
 /// Renews a lease.
 #[utoipa::path(post, path = "/v1/leases/{job}/{tile}/heartbeat",
     params(("job" = u64, Path, description = "job id"), ("tile" = u32, Path, description = "tile index")),
@@ -184,131 +140,6 @@ async fn heartbeat(
         &hb,
         Instant::now(),
     )?))
-}
-
-/// Uploads a rendered tile.
-#[utoipa::path(put, path = "/v1/jobs/{job}/tiles/{tile}",
-    params(("job" = u64, Path, description = "job id"), ("tile" = u32, Path, description = "tile index")),
-    request_body(description = "a TileUpload: as JSON, or (what spindle-worker sends) as \
-        MessagePack with named fields compressed with zstd",
-        content((TileUpload = "application/json"),
-                (Vec<u8> = "application/vnd.spindle.tile+msgpack+zstd"))),
-    responses((status = 200, body = TileAck), (status = 400, body = ApiError),
-              (status = 404, body = ApiError), (status = 409, body = ApiError),
-              (status = 413, body = ApiError), (status = 415, body = ApiError)))]
-async fn upload_tile(
-    State(state): State<AppState>,
-    identity: WorkerIdentity,
-    ApiPath((job, tile)): ApiPath<(u64, u32)>,
-    headers: HeaderMap,
-    body: Body,
-) -> Result<Json<TileAck>, Error> {
-    let encoding = UploadEncoding::of(&headers)?;
-    let epoch = lease_epoch(&headers)?;
-    // Nothing of the body is read before the lease is known to be this worker's; then at most
-    // what the tile's rectangle can hold is read, and inflated.
-    let rect = state.ledger().admit_upload(job, tile, identity.0, epoch)?;
-    let inflated_limit = TileUpload::max_packed_bytes(rect);
-    let body_limit = match encoding {
-        UploadEncoding::Compact => inflated_limit,
-        UploadEncoding::Json => TileUpload::max_json_bytes(rect),
-    }
-    .min(state.config().limits.max_tile_upload_bytes);
-    let body = read_body(body, body_limit).await?;
-    crate::metrics::upload_received(body.len());
-    let decoding = state.decode_turn().await;
-    // Decoding and hashing up to megabytes of floats is CPU work, and recording commits: both
-    // off the runtime, on one blocking thread; the ledger is held only to record.
-    let (outcome, complete, epoch) = state
-        .off_runtime(move |state| {
-            let upload: TileUpload = match encoding {
-                UploadEncoding::Json => parse_json(&body)?,
-                UploadEncoding::Compact => tile_encoding::decode(&body, inflated_limit)
-                    .map_err(|e| Error::BadRequest(e.to_string()))?,
-            };
-            if epoch.is_some_and(|e| e != upload.epoch) {
-                return Err(Error::BadRequest(format!(
-                    "epoch: {} is not the {LEASE_EPOCH_HEADER} header's {}",
-                    upload.epoch,
-                    epoch.unwrap_or_default()
-                )));
-            }
-            upload.check_report().map_err(Error::BadRequest)?;
-            let actual = pixel_hash(&upload.pixels);
-            if actual != upload.hash {
-                return Err(Error::BadRequest(format!(
-                    "hash: the pixels hash to {actual}, not {}",
-                    upload.hash
-                )));
-            }
-            identity.check("worker_id", upload.worker_id)?;
-            // The form the upload rests in, recorded by the same commit as the tile: a compact
-            // body as received.
-            let stored = match encoding {
-                UploadEncoding::Compact => body.to_vec(),
-                UploadEncoding::Json => {
-                    tile_encoding::encode(&upload).map_err(anyhow::Error::from)?
-                }
-            };
-            drop(decoding);
-            let (outcome, complete) = state.ledger().record_upload(job, tile, &upload, &stored)?;
-            Ok((outcome, complete, upload.epoch))
-        })
-        .await?;
-    crate::metrics::tile_stored(job, tile, epoch, outcome);
-    if complete {
-        // The last tile of the job, or of a pass: ending the pass queues the next pass's tiles
-        // and wakes the lease polls (`assemble::finish`).
-        state.assemble_complete_jobs();
-    }
-    Ok(Json(TileAck { outcome }))
-}
-
-/// The lease epoch an upload names in its [`LEASE_EPOCH_HEADER`], if it names one.
-fn lease_epoch(headers: &HeaderMap) -> Result<Option<u64>, Error> {
-    let Some(value) = headers.get(LEASE_EPOCH_HEADER) else {
-        return Ok(None);
-    };
-    value
-        .to_str()
-        .ok()
-        .and_then(|v| v.trim().parse().ok())
-        .map(Some)
-        .ok_or_else(|| {
-            Error::BadRequest(format!(
-                "{LEASE_EPOCH_HEADER}: not an epoch (a whole number)"
-            ))
-        })
-}
-
-/// How a tile upload's body is written, by its `Content-Type`.
-#[derive(Debug, Clone, Copy)]
-enum UploadEncoding {
-    /// `application/json`, or no content type.
-    Json,
-    /// [`tile_encoding::CONTENT_TYPE`].
-    Compact,
-}
-
-impl UploadEncoding {
-    fn of(headers: &HeaderMap) -> Result<UploadEncoding, Error> {
-        let Some(value) = headers.get(header::CONTENT_TYPE) else {
-            return Ok(UploadEncoding::Json);
-        };
-        let essence = value
-            .to_str()
-            .ok()
-            .and_then(|v| v.split(';').next())
-            .map(|v| v.trim().to_ascii_lowercase());
-        match essence.as_deref() {
-            Some("application/json") => Ok(UploadEncoding::Json),
-            Some(tile_encoding::CONTENT_TYPE) => Ok(UploadEncoding::Compact),
-            _ => Err(Error::UnsupportedMediaType(format!(
-                "Content-Type: a tile is application/json or {}",
-                tile_encoding::CONTENT_TYPE
-            ))),
-        }
-    }
 }
 
 /// Reports that a tile could not be rendered.
@@ -340,7 +171,7 @@ async fn fail_tile(
 
 /// The previous progressive pass's result of a tile whose current pass the calling worker
 /// holds (a job with `film.time_budget_s`): the stored `TilePixels` with its `progress`, in the
-/// compact form of uploads, from which the worker continues the tile ([`crate::passes`]).
+/// compact form of uploads, from which the worker continues the tile ([`crate::ledger::passes`]).
 #[utoipa::path(get, path = "/v1/leases/{job}/{tile}/previous",
     params(("job" = u64, Path, description = "job id"), ("tile" = u32, Path, description = "tile index")),
     responses((status = 200, description = "the previous pass's TilePixels, MessagePack compressed with zstd",
