@@ -1,5 +1,8 @@
-//! `spindle jobs [--state S] [--name N] [--limit N]`: the coordinator's jobs, oldest first,
-//! fetched a page at a time.
+//! `spindle jobs [--state S] [--name N] [--limit N]`: the coordinator's jobs, newest first as
+//! the dashboard lists them, with each one's progress and ETA.
+//!
+//! The coordinator pages its list oldest first and has no other order, so every page is read
+//! and the list turned round here; `--limit N` keeps the newest N.
 
 use anyhow::Result;
 use spindle_common::protocol::{JobInfo, JobState, MAX_JOB_PAGE};
@@ -16,7 +19,7 @@ pub struct JobsArgs {
     /// Only jobs whose name contains this.
     #[arg(long)]
     pub name: Option<String>,
-    /// At most this many jobs (default: all).
+    /// At most this many jobs, the newest (default: all).
     #[arg(long)]
     pub limit: Option<usize>,
     /// Print the jobs as JSON instead of a table.
@@ -34,16 +37,10 @@ pub async fn run(api: &Api, args: &JobsArgs) -> Result<()> {
     let mut jobs = Vec::new();
     let mut cursor = None;
     loop {
-        let want = args
-            .limit
-            .map_or(MAX_JOB_PAGE, |l| (l - jobs.len()).min(MAX_JOB_PAGE));
-        if want == 0 {
-            break;
-        }
         let query = JobQuery {
             state: args.state,
             name: args.name.clone(),
-            limit: Some(want),
+            limit: Some(MAX_JOB_PAGE),
             cursor: cursor.take(),
         };
         let page = api.jobs_page(&query).await?;
@@ -53,6 +50,7 @@ pub async fn run(api: &Api, args: &JobsArgs) -> Result<()> {
             None => break,
         }
     }
+    newest_first(&mut jobs, args.limit);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&jobs)?);
     } else if jobs.is_empty() {
@@ -63,11 +61,30 @@ pub async fn run(api: &Api, args: &JobsArgs) -> Result<()> {
     Ok(())
 }
 
+/// Orders `jobs` (as the coordinator lists them: by id, oldest first) newest first, keeping
+/// the newest `limit`.
+fn newest_first(jobs: &mut Vec<JobInfo>, limit: Option<usize>) {
+    jobs.sort_by_key(|j| std::cmp::Reverse(j.id));
+    if let Some(limit) = limit {
+        jobs.truncate(limit);
+    }
+}
+
 /// One line per job, under a header.
 pub fn table(jobs: &[JobInfo]) -> String {
     let mut s = format!(
-        "{:>6}  {:<20} {:<12} {:<10} {:>5}  {:>13}  {:>9}  {:>9}  {}\n",
-        "job", "name", "submitter", "submitted", "prio", "tiles", "size", "elapsed", "state"
+        "{:>6}  {:<20} {:<12} {:<10} {:>5}  {:>13}  {:>4}  {:>9}  {:>9}  {:>9}  {}\n",
+        "job",
+        "name",
+        "submitter",
+        "submitted",
+        "prio",
+        "tiles",
+        "done",
+        "eta",
+        "size",
+        "elapsed",
+        "state"
     );
     for j in jobs {
         let elapsed = if j.elapsed_s > 0.0 {
@@ -75,14 +92,30 @@ pub fn table(jobs: &[JobInfo]) -> String {
         } else {
             "-".into()
         };
+        let done = if j.tiles_total > 0 {
+            format!(
+                "{:.0}%",
+                100.0 * f64::from(j.tiles_done) / f64::from(j.tiles_total)
+            )
+        } else {
+            "-".into()
+        };
+        let eta = match j.eta_s {
+            Some(eta) if eta.is_finite() && eta >= 0.0 && !j.state.is_finished() => {
+                format!("{eta:.0}s")
+            }
+            _ => "-".into(),
+        };
         s.push_str(&format!(
-            "{:>6}  {:<20} {:<12} {:<10} {:>5}  {:>13}  {:>9}  {:>9}  {}\n",
+            "{:>6}  {:<20} {:<12} {:<10} {:>5}  {:>13}  {:>4}  {:>9}  {:>9}  {:>9}  {}\n",
             j.id,
             j.name,
             j.submitter.as_deref().unwrap_or("-"),
             utc_time(j.submitted_at_ms),
             j.priority,
             format!("{}/{}", j.tiles_done, j.tiles_total),
+            done,
+            eta,
             format!("{}x{}", j.width, j.height),
             elapsed,
             state_label(j),
@@ -90,3 +123,6 @@ pub fn table(jobs: &[JobInfo]) -> String {
     }
     s
 }
+
+#[cfg(test)]
+mod tests;

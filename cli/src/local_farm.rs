@@ -7,15 +7,24 @@
 //!
 //! In-process workers rather than child processes: no binary to locate, nothing left running
 //! if the command is interrupted, and one Ctrl-C stops everything.
+//!
+//! On SIGINT or SIGTERM ([`crate::interrupt`]) the finished tiles are read from the farm's own
+//! database ([`so_far`], the coordinator's `assemble::frame` over its tile store) and handed
+//! back ([`Outcome::Stopped`]); on SIGHUP the same image goes to the caller's `snapshot` and the
+//! render goes on. The data directory is removed however the command ends.
 
+use std::path::Path;
 use std::time::Duration;
 
 use anyhow::{Context, Result, anyhow};
-use spindle_common::protocol::JobInfo;
+use spindle_common::image::Image;
+use spindle_common::protocol::{JobInfo, JobSpec};
+use spindle_common::stats::RenderStats;
 use spindle_worker as worker;
 use tokio_util::sync::CancellationToken;
 
 use crate::api::{Api, ImageFile};
+use crate::interrupt::{Signals, Stop};
 use crate::meter::Show;
 use crate::progress::{Wait, require_done, wait_for};
 use crate::secret::random_hex;
@@ -29,6 +38,23 @@ pub struct FarmResult {
     pub tiles_per_worker: Vec<u64>,
     /// Render threads of each worker.
     pub threads_per_worker: usize,
+}
+
+/// How a local render ended.
+pub enum Outcome {
+    /// Every tile in.
+    Done(FarmResult),
+    /// A signal stopped it: the tiles that were in.
+    Stopped(Stop, SoFar),
+}
+
+/// A job's image as far as its tiles are in: the others transparent black (alpha 0).
+pub struct SoFar {
+    pub image: Image,
+    /// The summed statistics of the tiles in.
+    pub stats: RenderStats,
+    pub tiles_done: usize,
+    pub tiles_total: usize,
 }
 
 /// The farm to start.
@@ -49,8 +75,14 @@ pub fn default_workers() -> usize {
 }
 
 /// Starts the coordinator and the farm's workers, submits the job through `submit`, waits
-/// showing its progress, downloads the final EXR, and stops everything.
-pub async fn render<F, Fut>(farm: LocalFarm, submit: F) -> Result<FarmResult>
+/// showing its progress, downloads the final EXR, and stops everything. A SIGINT or SIGTERM
+/// ends the wait with the tiles that are in; each SIGHUP hands them to `snapshot`.
+pub async fn render<F, Fut>(
+    farm: LocalFarm,
+    signals: &Signals,
+    snapshot: &mut dyn FnMut(SoFar),
+    submit: F,
+) -> Result<Outcome>
 where
     F: FnOnce(Api) -> Fut,
     Fut: Future<Output = Result<JobInfo>>,
@@ -60,22 +92,34 @@ where
         local: true,
         ..Wait::default()
     };
-    render_waiting(farm, wait, submit).await
-}
-
-/// [`render`], waiting for the job as `wait` says.
-async fn render_waiting<F, Fut>(farm: LocalFarm, wait: Wait, submit: F) -> Result<FarmResult>
-where
-    F: FnOnce(Api) -> Fut,
-    Fut: Future<Output = Result<JobInfo>>,
-{
     let data = tempfile::Builder::new()
         .prefix("spindle-farm-")
         .tempdir()
         .context("creating the local farm's data directory")?;
+    signals.remove_on_quit(Some(data.path().to_path_buf()));
+    let outcome = render_waiting(farm, wait, data.path(), Some((signals, snapshot)), submit).await;
+    signals.remove_on_quit(None);
+    // Whichever way it ended: the coordinator has stopped or been given up on.
+    data.close()
+        .context("removing the local farm's data directory")?;
+    outcome
+}
+
+/// [`render`] in the data directory `data`, waiting for the job as `wait` says.
+async fn render_waiting<F, Fut>(
+    farm: LocalFarm,
+    wait: Wait,
+    data: &Path,
+    signals: Option<(&Signals, &mut dyn FnMut(SoFar))>,
+    submit: F,
+) -> Result<Outcome>
+where
+    F: FnOnce(Api) -> Fut,
+    Fut: Future<Output = Result<JobInfo>>,
+{
     let client_token = random_hex()?;
     let worker_token = random_hex()?;
-    let mut config = spindle_server::Config::new(data.path());
+    let mut config = spindle_server::Config::new(data);
     config.client_token = Some(client_token.clone());
     config.worker_token = Some(worker_token.clone());
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0")
@@ -85,7 +129,7 @@ where
     let shutdown = CancellationToken::new();
     // Stops everything when this function returns, whichever way.
     let _stop_all = shutdown.clone().drop_guard();
-    let server = tokio::spawn(spindle_server::run(
+    let mut server = tokio::spawn(spindle_server::run(
         config,
         listener,
         shutdown.clone().cancelled_owned(),
@@ -109,7 +153,35 @@ where
 
     let api = Api::new(&base, Some(client_token))?;
     let job = submit(api.clone()).await?;
-    let info = wait_for(&api, job.id, wait).await?;
+    let info = match signals {
+        None => wait_for(&api, job.id, wait).await?,
+        Some((signals, snapshot)) => {
+            let waiting = wait_for(&api, job.id, wait);
+            tokio::pin!(waiting);
+            let mut asked = signals.watch();
+            let mut hangups = asked.borrow_and_update().hangups;
+            loop {
+                if let Some(stop) = asked.borrow().stop {
+                    let so_far = so_far(data, job.id).await?;
+                    shutdown.cancel();
+                    // The coordinator closes its database before the directory goes; the
+                    // workers' tiles in progress are abandoned.
+                    let _ = tokio::time::timeout(Duration::from_secs(10), &mut server).await;
+                    return Ok(Outcome::Stopped(stop, so_far));
+                }
+                tokio::select! {
+                    info = &mut waiting => break info?,
+                    _ = asked.changed() => {
+                        let now = *asked.borrow_and_update();
+                        if now.stop.is_none() && now.hangups > hangups {
+                            hangups = now.hangups;
+                            snapshot(so_far(data, job.id).await?);
+                        }
+                    }
+                }
+            }
+        }
+    };
     require_done(&info)?;
     let exr = api.image(job.id, ImageFile::Exr).await?;
 
@@ -126,12 +198,41 @@ where
         .await
         .map_err(|_| anyhow!("the local coordinator did not stop"))?
         .context("the local coordinator panicked")??;
-    Ok(FarmResult {
+    Ok(Outcome::Done(FarmResult {
         job: info,
         exr,
         tiles_per_worker,
         threads_per_worker: threads,
+    }))
+}
+
+/// The image of job `job`'s tiles that are in, read from the farm's database in `data` (a
+/// reader beside the running coordinator's ledger, or after it stopped).
+async fn so_far(data: &Path, job: u64) -> Result<SoFar> {
+    let data = data.to_path_buf();
+    tokio::task::spawn_blocking(move || {
+        use spindle_server::{assemble, db, tile_store::TileStore};
+        let database = data.join("spindle.db");
+        let conn = db::open(&database).context("opening the local farm's database")?;
+        let row = db::load_jobs(&conn)?
+            .into_iter()
+            .find(|r| r.id == job)
+            .ok_or_else(|| anyhow!("the local farm has no job {job}"))?;
+        let spec: JobSpec = serde_json::from_str(&row.spec_json).context("the job's spec")?;
+        let tiles = db::done_tiles(&conn, job)?;
+        let (_, stats) = db::tile_totals(&conn, job)?;
+        let limits = spindle_server::Limits::default();
+        let store = TileStore::open(data.join("jobs"), &database, limits.max_tile_upload_bytes)?;
+        let (image, damaged) = assemble::frame(&store, job, &spec, &tiles)?;
+        Ok(SoFar {
+            image,
+            stats,
+            tiles_done: tiles.len() - damaged.len(),
+            tiles_total: spec.tiles().len(),
+        })
     })
+    .await
+    .context("reading the tiles that are in")?
 }
 
 #[cfg(test)]
@@ -157,9 +258,10 @@ mod tests {
             threads: None,
             show: Show::Nothing,
         };
-        let result = tokio::time::timeout(
+        let data = tempfile::tempdir().unwrap();
+        let outcome = tokio::time::timeout(
             Duration::from_secs(60),
-            render_waiting(farm, wait, |api| async move {
+            render_waiting(farm, wait, data.path(), None, |api| async move {
                 crate::submit::submit_scene_file(
                     &api,
                     scene,
@@ -177,6 +279,9 @@ mod tests {
         .await
         .expect("the job's end was not seen within a minute")
         .unwrap();
+        let Outcome::Done(result) = outcome else {
+            panic!("stopped without a signal")
+        };
         assert_eq!(result.job.tiles_done, result.job.tiles_total);
         assert!(result.job.tiles_total > 1);
     }

@@ -5,6 +5,7 @@ mod api;
 mod cancel;
 mod control;
 mod fetch;
+mod interrupt;
 mod jobs;
 mod local_farm;
 mod meter;
@@ -80,7 +81,7 @@ enum Command {
     Submit(OnFarm<submit::SubmitArgs>),
     /// Show one job, or every job.
     Status(OnFarm<status::StatusArgs>),
-    /// List jobs (filter by state or name), oldest first.
+    /// List jobs (filter by state or name), newest first, with progress and ETA.
     Jobs(OnFarm<jobs::JobsArgs>),
     /// Pause a job: no new tiles are handed out; tiles in progress finish.
     Pause(OnFarm<control::JobArg>),
@@ -128,6 +129,11 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("spindle: {e:#}");
+            if let Some(interrupted) = e.downcast_ref::<interrupt::Interrupted>() {
+                // Not through the runtime's drop, which would wait for the tiles still
+                // rendering on its blocking threads.
+                std::process::exit(i32::from(interrupted.signal.exit_code()));
+            }
             ExitCode::FAILURE
         }
     }

@@ -97,6 +97,54 @@ impl Lines {
     }
 }
 
+/// How far back [`RecentRate`] looks: long enough to span several tiles, short enough that the
+/// costly centre of a frame (rendered first) soon drops out of the estimate.
+pub const RECENT: Duration = Duration::from_secs(30);
+
+/// The time to go at the pace of the most recent work rather than of the whole run: tiles are
+/// rendered centre first, where the objects (and the cost) are, so the rate so far undercounts
+/// the cheap outer tiles still to come (a job's whole-run ETA was 25 times too long near its
+/// end). The pace is measured over the last [`RECENT`], and over at least [`RecentRate::MIN_STEPS`]
+/// steps when fewer came in that time.
+#[derive(Debug, Default)]
+pub struct RecentRate {
+    /// `(when, done)`, oldest first, `done` increasing.
+    samples: std::collections::VecDeque<(Instant, u64)>,
+}
+
+impl RecentRate {
+    /// The fewest completions the pace is measured over.
+    pub const MIN_STEPS: u64 = 4;
+
+    /// `done` counted at `now`.
+    pub fn record(&mut self, now: Instant, done: u64) {
+        if self.samples.back().is_some_and(|&(_, d)| d >= done) {
+            return;
+        }
+        self.samples.push_back((now, done));
+        // Drop samples older than the window while the rest still span enough steps.
+        while self.samples.len() > 2 {
+            let (t1, d1) = self.samples[1];
+            if now.saturating_duration_since(t1) < RECENT || done - d1 < Self::MIN_STEPS {
+                break;
+            }
+            self.samples.pop_front();
+        }
+    }
+
+    /// The time to go until `total`, at the recent pace; unknown before two counts.
+    pub fn eta(&self, total: u64) -> Option<Duration> {
+        let (&(t0, d0), &(t1, d1)) = (self.samples.front()?, self.samples.back()?);
+        if d1 <= d0 {
+            return None;
+        }
+        let per_step = t1.saturating_duration_since(t0).as_secs_f64() / (d1 - d0) as f64;
+        Some(Duration::from_secs_f64(
+            per_step * total.saturating_sub(d1) as f64,
+        ))
+    }
+}
+
 /// The time to go if the rest goes at the rate so far; unknown before anything is done.
 fn eta_from_rate(elapsed: Duration, done: u64, total: u64) -> Option<Duration> {
     if done == 0 {
@@ -120,7 +168,7 @@ fn duration(d: Duration) -> String {
 /// [`Show`] says. Shared by the threads that do the work.
 pub struct Meter {
     bar: ProgressBar,
-    lines: Option<Mutex<Lines>>,
+    lines: Option<Mutex<(Lines, RecentRate)>>,
 }
 
 impl Meter {
@@ -134,8 +182,12 @@ impl Meter {
             );
             bar.set_draw_target(ProgressDrawTarget::stderr());
         }
-        let lines = (show == Show::Lines)
-            .then(|| Mutex::new(Lines::new(what, unit, LINE_EVERY, Instant::now())));
+        let lines = (show == Show::Lines).then(|| {
+            let started = Instant::now();
+            let mut recent = RecentRate::default();
+            recent.record(started, 0);
+            Mutex::new((Lines::new(what, unit, LINE_EVERY, started), recent))
+        });
         Meter { bar, lines }
     }
 
@@ -145,7 +197,10 @@ impl Meter {
         if let Some(lines) = &self.lines {
             let total = self.bar.length().unwrap_or(0);
             let mut lines = lines.lock().unwrap_or_else(PoisonError::into_inner);
-            if let Some(line) = lines.due(Instant::now(), self.bar.position(), total, None) {
+            let (lines, recent) = &mut *lines;
+            let (now, done) = (Instant::now(), self.bar.position());
+            recent.record(now, done);
+            if let Some(line) = lines.due(now, done, total, recent.eta(total)) {
                 eprintln!("{line}");
             }
         }
@@ -190,6 +245,42 @@ mod tests {
             lines.due(t0 + s(3725), 99, 100, None).as_deref(),
             Some("render: 99% (99/100 rows), 1 h 02 min elapsed, eta 38 s")
         );
+    }
+
+    /// Ten costly tiles over 100 s, then one a second: at 150 s (60 of 100 done) the recent pace
+    /// gives the true 40 s to go, where the rate over the whole run says 100 s.
+    #[test]
+    fn the_eta_follows_the_recent_pace_not_the_costly_start() {
+        let t0 = Instant::now();
+        let s = Duration::from_secs;
+        let mut recent = RecentRate::default();
+        recent.record(t0, 0);
+        assert_eq!(recent.eta(100), None, "nothing done yet");
+        for i in 1..=10 {
+            recent.record(t0 + s(10 * i), i);
+        }
+        assert_eq!(
+            recent.eta(100),
+            Some(s(900)),
+            "10 s a tile so far, 90 to go"
+        );
+        for i in 11..=60 {
+            recent.record(t0 + s(100 + (i - 10)), i);
+        }
+        assert_eq!(recent.eta(100), Some(s(40)));
+        assert_eq!(eta_from_rate(s(150), 60, 100), Some(s(100)));
+    }
+
+    /// Fewer than MIN_STEPS completions in the window: the pace spans the last MIN_STEPS.
+    #[test]
+    fn a_slow_pace_is_measured_over_several_steps() {
+        let t0 = Instant::now();
+        let s = Duration::from_secs;
+        let mut recent = RecentRate::default();
+        for i in 0..=6 {
+            recent.record(t0 + s(60 * i), i);
+        }
+        assert_eq!(recent.eta(10), Some(s(4 * 60)), "a minute a step, 4 to go");
     }
 
     /// Nothing done yet: the ETA is unknown, not infinite or zero; a total of 0 (not yet known)

@@ -15,7 +15,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use spindle_common::protocol::{EventKind, JobInfo, JobState};
 
 use crate::api::Api;
-use crate::meter::{LINE_EVERY, Lines, Show};
+use crate::meter::{LINE_EVERY, Lines, RecentRate, Show};
 
 /// How to wait.
 #[derive(Debug, Clone, Copy)]
@@ -134,8 +134,11 @@ struct JobDisplay {
     /// or when it is not to be drawn.
     target: Option<ProgressDrawTarget>,
     lines: Option<Lines>,
-    /// The coordinator's estimate of the time to go, from the last answer.
+    /// The coordinator's estimate of the time to go, from the last answer: its whole-run rate,
+    /// used until the recent pace is known.
     eta: Option<Duration>,
+    /// The pace of the tiles as they land.
+    recent: RecentRate,
 }
 
 impl JobDisplay {
@@ -166,11 +169,19 @@ impl JobDisplay {
             target,
             lines,
             eta: None,
+            recent: RecentRate::default(),
         }
     }
 
     /// The job as the coordinator last described it.
-    fn update(&mut self, done: u32, total: u32, message: String, eta: Option<Duration>) {
+    fn update(
+        &mut self,
+        done: u32,
+        total: u32,
+        state: &str,
+        finished: bool,
+        eta: Option<Duration>,
+    ) {
         if total > 0
             && let Some(target) = self.target.take()
         {
@@ -179,22 +190,36 @@ impl JobDisplay {
         self.eta = eta;
         self.bar.set_length(u64::from(total));
         self.bar.set_position(u64::from(done));
+        let now = Instant::now();
+        self.recent.record(now, u64::from(done));
+        let message = match self.eta() {
+            Some(eta) if !finished => format!("{state} eta {:.0} s", eta.as_secs_f64()),
+            _ => state.to_string(),
+        };
         self.bar.set_message(message);
-        self.print_line_if_due(Instant::now());
+        self.print_line_if_due(now);
     }
 
     fn tile_done(&mut self, now: Instant) {
         self.bar.inc(1);
+        self.recent.record(now, self.bar.position());
         self.print_line_if_due(now);
+    }
+
+    /// The time to go: at the recent pace once known, else the coordinator's estimate.
+    fn eta(&self) -> Option<Duration> {
+        let total = self.bar.length().unwrap_or(0);
+        self.recent.eta(total).or(self.eta)
     }
 
     /// For a log: the progress line, when one is due at `now`.
     fn print_line_if_due(&mut self, now: Instant) {
-        if let Some(lines) = &mut self.lines {
-            let total = self.bar.length().unwrap_or(0);
-            if let Some(line) = lines.due(now, self.bar.position(), total, self.eta) {
-                eprintln!("{line}");
-            }
+        let (done, total) = (self.bar.position(), self.bar.length().unwrap_or(0));
+        let eta = self.eta();
+        if let Some(lines) = &mut self.lines
+            && let Some(line) = lines.due(now, done, total, eta)
+        {
+            eprintln!("{line}");
         }
     }
 }
@@ -217,18 +242,17 @@ impl Followed<'_> {
         match self.api.job(self.id).await {
             Ok(info) => {
                 self.last_answer = Instant::now();
-                let message = match info.eta_s {
-                    Some(eta) if !info.state.is_finished() => {
-                        format!("{} eta {eta:.0} s", info.state.as_str())
-                    }
-                    _ => info.state.as_str().to_string(),
-                };
                 let eta = info
                     .eta_s
                     .filter(|s| s.is_finite() && *s >= 0.0)
                     .map(Duration::from_secs_f64);
-                self.display
-                    .update(info.tiles_done, info.tiles_total, message, eta);
+                self.display.update(
+                    info.tiles_done,
+                    info.tiles_total,
+                    info.state.as_str(),
+                    info.state.is_finished(),
+                    eta,
+                );
                 if info.state.is_finished() {
                     self.display.bar.finish_and_clear();
                     return Ok(Some(info));
@@ -332,9 +356,9 @@ mod tests {
         let target = ProgressDrawTarget::term_like(Box::new(term.clone()));
         let mut display = JobDisplay::drawn_on("job 3".into(), Some(target), None);
         assert_eq!(term.text(), "", "drawn before the job was read");
-        display.update(0, 0, "queued".into(), None);
+        display.update(0, 0, "queued", false, None);
         assert_eq!(term.text(), "", "drawn with no tiles known");
-        display.update(0, 12, "running".into(), None);
+        display.update(0, 12, "running", false, None);
         let text = term.text();
         assert!(
             text.contains("job 3") && text.contains("0/12 tiles"),

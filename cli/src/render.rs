@@ -26,6 +26,8 @@ use spindle_render::{Scene, provenance, render_pixel};
 
 use spindle_common::scene_files::read_meshes;
 
+use crate::interrupt::{Interrupted, Signals, tiles_written};
+use crate::local_farm::{Outcome, SoFar};
 use crate::meter::{Meter, Show};
 
 /// `spindle render` options.
@@ -224,13 +226,16 @@ pub async fn run(args: &RenderArgs) -> Result<()> {
     let workers = args
         .workers
         .unwrap_or_else(crate::local_farm::default_workers);
+    let signals = Signals::listen()?;
     if workers == 0 {
-        return tokio::task::block_in_place(|| on_threads(args.threads, || in_process(args)))?;
+        return tokio::task::block_in_place(|| {
+            on_threads(args.threads, || in_process(args, &signals))
+        })?;
     }
     if args.pixel.is_some() {
         bail!("--pixel renders in this process: add --workers 0");
     }
-    on_local_farm(args, workers).await
+    on_local_farm(args, workers, &signals).await
 }
 
 /// What `-o` asks for, by its extension.
@@ -295,7 +300,7 @@ pub fn refuse_unlit_media(
 }
 
 /// `--workers N`: through the embedded farm.
-async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
+async fn on_local_farm(args: &RenderArgs, workers: usize, signals: &Signals) -> Result<()> {
     let started = Instant::now();
     // Read and check the scene here first, so a mistake is reported before any farm starts.
     let mut files = crate::scene_input::load(&args.scene, args.camera.as_deref(), !args.quiet)?;
@@ -319,7 +324,39 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
         threads: args.threads,
         show: args.show(),
     };
-    let result = crate::local_farm::render(farm, |api| async move {
+    let scene_file = args.scene.display().to_string();
+    let window = args.crop.unwrap_or(TileRect {
+        x: 0,
+        y: 0,
+        width: desc.film.width,
+        height: desc.film.height,
+    });
+    // Describes and writes the tiles that are in, on a signal.
+    let write_so_far = |so_far: SoFar| -> Result<String> {
+        let mut image = so_far.image;
+        header::describe(
+            &mut image,
+            &RenderFacts {
+                scene: &desc,
+                window,
+                stats: &so_far.stats,
+                provenance: Some(&provenance),
+                passes: None,
+                render_seconds: Some(started.elapsed().as_secs_f64()),
+                scene_file: Some(&scene_file),
+                workers: Some(workers),
+            },
+        );
+        let done = (so_far.tiles_done, so_far.tiles_total);
+        mark_partial(&mut image, Some(done));
+        tokio::task::block_in_place(|| write_outputs(&image, args))?;
+        Ok(tiles_written(done.0, done.1, args.output()?))
+    };
+    let mut snapshot = |so_far: SoFar| match write_so_far(so_far) {
+        Ok(what) => eprintln!("spindle: SIGHUP: {what}; rendering goes on"),
+        Err(e) => eprintln!("spindle: SIGHUP: {e:#}"),
+    };
+    let outcome = crate::local_farm::render(farm, signals, &mut snapshot, |api| async move {
         let edit = |s: &mut SceneDescription| args.edit(s);
         crate::submit::submit_scene_file(
             &api,
@@ -336,6 +373,16 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
         .await
     })
     .await?;
+    let result = match outcome {
+        Outcome::Done(result) => result,
+        Outcome::Stopped(signal, so_far) => {
+            return Err(Interrupted {
+                signal,
+                what: write_so_far(so_far)?,
+            }
+            .into());
+        }
+    };
     let mut image = Image::from_exr_bytes(&result.exr)
         .context("the local coordinator sent an unreadable EXR")?;
     let stats = result.job.stats;
@@ -345,17 +392,11 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
         // The header says what the image is: the render of `spp` = the samples reached.
         desc.film.spp = p.spp;
     }
-    let scene_file = args.scene.display().to_string();
     header::describe(
         &mut image,
         &RenderFacts {
             scene: &desc,
-            window: args.crop.unwrap_or(TileRect {
-                x: 0,
-                y: 0,
-                width: desc.film.width,
-                height: desc.film.height,
-            }),
+            window,
             stats: &stats,
             provenance: Some(&provenance),
             passes: passes.map(|p| (p.pass, p.budget_s)),
@@ -393,7 +434,7 @@ async fn on_local_farm(args: &RenderArgs, workers: usize) -> Result<()> {
 }
 
 /// `--workers 0`: in this process, with rayon over the current pool (`--threads`).
-fn in_process(args: &RenderArgs) -> Result<()> {
+fn in_process(args: &RenderArgs, signals: &Signals) -> Result<()> {
     let started = Instant::now();
     let mut files = crate::scene_input::load(&args.scene, args.camera.as_deref(), !args.quiet)?;
     args.edit(&mut files.desc)?;
@@ -464,17 +505,77 @@ fn in_process(args: &RenderArgs) -> Result<()> {
         .film
         .time_budget_s
         .filter(|_| args.pixel.is_none());
+    let scene_file = args.scene.display().to_string();
+    // Describes and writes an image of `desc` rendered so far (`partial`: tiles done of all).
+    let write_image = |image: &mut Image,
+                       stats: &RenderStats,
+                       desc: &SceneDescription,
+                       passes: Option<(u32, f64)>,
+                       partial: Option<(usize, usize)>| {
+        header::describe(
+            image,
+            &RenderFacts {
+                scene: desc,
+                window: region,
+                stats,
+                provenance: Some(&provenance),
+                passes,
+                render_seconds: Some(started.elapsed().as_secs_f64()),
+                scene_file: Some(&scene_file),
+                workers: None,
+            },
+        );
+        mark_partial(image, partial);
+        write_outputs(image, args)
+    };
     let (mut image, stats, passes) = match budget {
         None => {
             let progress = Meter::new(args.show(), rows, "render", "rows");
-            let (image, stats) =
-                spindle_render::render_frame(&scene, region, &|rows| progress.inc(rows))?;
+            let mut hangups = signals.asked().hangups;
+            let frame = spindle_render::render_frame_until(
+                &scene,
+                region,
+                &|rows| progress.inc(rows),
+                &mut |so_far| {
+                    let asked = signals.asked();
+                    if asked.hangups > hangups {
+                        hangups = asked.hangups;
+                        let mut image = so_far.image.clone();
+                        let done = (so_far.tiles_done, so_far.tiles_total);
+                        match write_image(&mut image, &so_far.stats, &files.desc, None, Some(done))
+                        {
+                            Ok(_) => eprintln!(
+                                "spindle: SIGHUP: {}; rendering goes on",
+                                tiles_written(
+                                    done.0,
+                                    done.1,
+                                    args.output.as_deref().unwrap_or(Path::new("-"))
+                                )
+                            ),
+                            Err(e) => eprintln!("spindle: SIGHUP: {e:#}"),
+                        }
+                    }
+                    asked.stop.is_none()
+                },
+            )?;
             progress.finish();
-            (image, stats, None)
+            if let Some(stop) = signals.asked().stop
+                && frame.tiles_done < frame.tiles_total
+            {
+                let mut image = frame.image;
+                let done = (frame.tiles_done, frame.tiles_total);
+                write_image(&mut image, &frame.stats, &files.desc, None, Some(done))?;
+                return Err(Interrupted {
+                    signal: stop,
+                    what: tiles_written(done.0, done.1, args.output()?),
+                }
+                .into());
+            }
+            (frame.image, frame.stats, None)
         }
         Some(budget) => {
             let (image, stats, report) =
-                render_in_passes(&scene, region, budget, render_started, args.quiet)?;
+                render_in_passes(&scene, region, budget, render_started, args.quiet, signals)?;
             (image, stats, Some(report))
         }
     };
@@ -483,21 +584,27 @@ fn in_process(args: &RenderArgs) -> Result<()> {
         // The header says what the image is: the render of `spp` = the samples reached.
         files.desc.film.spp = report.spp;
     }
-    let scene_file = args.scene.display().to_string();
-    header::describe(
+    let preview = write_image(
         &mut image,
-        &RenderFacts {
-            scene: &files.desc,
-            window: region,
-            stats: &stats,
-            provenance: Some(&provenance),
-            passes: passes.zip(budget).map(|(report, b)| (report.passes, b)),
-            render_seconds: Some(started.elapsed().as_secs_f64()),
-            scene_file: Some(&scene_file),
-            workers: None,
-        },
-    );
-    let preview = write_outputs(&image, args)?;
+        &stats,
+        &files.desc,
+        passes.zip(budget).map(|(report, b)| (report.passes, b)),
+        None,
+    )?;
+    if let (Some(stop), Some(report)) = (signals.asked().stop, passes)
+        && report.pixels_sampling > 0
+    {
+        return Err(Interrupted {
+            signal: stop,
+            what: format!(
+                "wrote the last complete pass ({} passes, {} spp) to {}",
+                report.passes,
+                report.spp,
+                args.output()?.display()
+            ),
+        }
+        .into());
+    }
 
     args.say(format_args!(
         "rendered {} ({}x{}{}, {} spp, {} triangles in {} objects, {} lights, {} warnings) in {:.2} s \
@@ -540,6 +647,7 @@ fn render_in_passes(
     budget: f64,
     started: Instant,
     quiet: bool,
+    signals: &Signals,
 ) -> Result<(Image, RenderStats, spindle_render::PassReport)> {
     let mut last_end = 0.0;
     let result = spindle_render::render_frame_passes(scene, region, &mut |report| {
@@ -552,9 +660,19 @@ fn render_in_passes(
                 report.passes, report.spp, report.pixels_sampling
             );
         }
-        now + pass_seconds <= budget
+        now + pass_seconds <= budget && signals.asked().stop.is_none()
     })?;
     Ok(result)
+}
+
+/// Says in the header of an image rendered in part how much of it is in: `spindle.tiles_done`
+/// = `12 of 40` (the others transparent black).
+fn mark_partial(image: &mut Image, partial: Option<(usize, usize)>) {
+    if let Some((done, total)) = partial {
+        image
+            .attributes
+            .insert("spindle.tiles_done".into(), format!("{done} of {total}"));
+    }
 }
 
 /// `, region x,y WxH` for a window smaller than the film, else nothing.

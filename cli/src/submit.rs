@@ -48,7 +48,8 @@ pub struct SubmitArgs {
     /// The job's name (default: the scene file's name without `.json`).
     #[arg(long)]
     pub name: Option<String>,
-    /// Who submits it, a label shown in `spindle jobs` (default: $USER).
+    /// Who submits it, a label shown in `spindle jobs` (default: $USER, or when it is unset
+    /// the account's name from the system).
     #[arg(long)]
     pub submitter: Option<String>,
     /// Set a scene field without editing the file: `--set objects[0].material.eta=1.33`
@@ -91,7 +92,8 @@ pub async fn run(api: &Api, args: &SubmitArgs) -> Result<()> {
         submitter: args
             .submitter
             .clone()
-            .or_else(|| std::env::var("USER").ok())
+            .or_else(|| std::env::var("USER").ok().filter(|s| !s.is_empty()))
+            .or_else(|| whoami::username().ok())
             .filter(|s| !s.is_empty()),
         crop: args.crop,
     };

@@ -309,7 +309,42 @@ fn check_direction(path: &str, v: &[f64; 3]) -> Check {
 fn check_object(path: &str, object: &Object) -> Check {
     check_shape(&format!("{path}.shape"), &object.shape)?;
     check_transform(&format!("{path}.transform"), &object.transform)?;
+    check_procedural_placement(&format!("{path}.transform"), object)?;
     check_material(&format!("{path}.material"), &object.material)
+}
+
+/// The radius of a sphere about the origin that holds every vertex of a procedural shape (an
+/// icosphere's vertices lie on its sphere; a bumpy sphere's within `radius · (1 + amplitude)`,
+/// its noise being within ±1; a box's within its half diagonal, the waves' amplitude added to
+/// its top); `None` for an OBJ file, whose vertices only its bytes tell.
+pub fn procedural_radius(shape: &Shape) -> Option<f64> {
+    match shape {
+        Shape::Obj { .. } => None,
+        Shape::Icosphere { radius, .. } => Some(*radius),
+        Shape::BumpySphere {
+            radius, amplitude, ..
+        } => Some(radius * (1.0 + amplitude.abs())),
+        Shape::Box { size, waves } => {
+            let top = size[1] / 2.0 + waves.as_ref().map_or(0.0, |w| w.amplitude.abs());
+            Some((size[0] * size[0] / 4.0 + top * top + size[2] * size[2] / 4.0).sqrt())
+        }
+    }
+}
+
+/// A procedural shape is placed within the scene's extent when its bounding sphere is
+/// ([`procedural_radius`], [`surely_within_extent`]): checked from the description alone, so
+/// the coordinator refuses at submission what a worker would refuse at build. Stricter than the
+/// renderer's vertex rule only for a shape whose sphere, not its vertices, crosses the extent.
+fn check_procedural_placement(path: &str, object: &Object) -> Check {
+    match procedural_radius(&object.shape) {
+        Some(radius) if !surely_within_extent(&object.transform, radius) => Err(SceneError::new(
+            path,
+            format!(
+                "places the shape's bounding sphere (radius {radius:e} about its origin) past the                  scene's extent of ±{MAX_COORDINATE:e} per coordinate (scenes/README.md)"
+            ),
+        )),
+        _ => Ok(()),
+    }
 }
 
 fn check_shape(path: &str, shape: &Shape) -> Check {

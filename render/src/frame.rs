@@ -30,15 +30,48 @@ pub fn render_frame(
     region: TileRect,
     rows_done: &(dyn Fn(u64) + Sync),
 ) -> Result<(Image, RenderStats), ImageError> {
+    let frame = render_frame_until(scene, region, rows_done, &mut |_| true)?;
+    Ok((frame.image, frame.stats))
+}
+
+/// A frame as far as it has been rendered: the tiles done are in `image`, the others are
+/// transparent black (alpha 0).
+#[derive(Debug, Clone)]
+pub struct FrameSoFar {
+    pub image: Image,
+    /// The summed statistics of the tiles done.
+    pub stats: RenderStats,
+    pub tiles_done: usize,
+    pub tiles_total: usize,
+}
+
+/// [`render_frame`], calling `keep_going` with the frame so far after each tile and stopping
+/// when it returns `false`: the caller's way to stop early (an interrupted render) or to look
+/// at the image midway. The tiles rendered are bit for bit [`render_frame`]'s.
+pub fn render_frame_until(
+    scene: &Scene,
+    region: TileRect,
+    rows_done: &(dyn Fn(u64) + Sync),
+    keep_going: &mut dyn FnMut(&FrameSoFar) -> bool,
+) -> Result<FrameSoFar, ImageError> {
     let film = scene.film();
-    let mut image = Image::window(film.width, film.height, region)?;
-    let mut stats = RenderStats::default();
-    for rect in split_window_centre_first(region, TILE_SIZE) {
+    let tiles = split_window_centre_first(region, TILE_SIZE);
+    let mut frame = FrameSoFar {
+        image: Image::window(film.width, film.height, region)?,
+        stats: RenderStats::default(),
+        tiles_done: 0,
+        tiles_total: tiles.len(),
+    };
+    for rect in tiles {
         let pixels = render_tile_with_progress(scene, rect, rows_done);
-        stats.add(&pixels.stats);
-        image.insert_tile(&pixels)?;
+        frame.stats.add(&pixels.stats);
+        frame.image.insert_tile(&pixels)?;
+        frame.tiles_done += 1;
+        if frame.tiles_done < frame.tiles_total && !keep_going(&frame) {
+            break;
+        }
     }
-    Ok((image, stats))
+    Ok(frame)
 }
 
 /// Samples a pixel gains per progressive pass: one batch of the adaptive stopping rule, so that

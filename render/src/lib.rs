@@ -34,7 +34,9 @@ pub mod transform;
 pub mod transport;
 pub mod wavy_box;
 
-pub use frame::{PASS_SPP, PassReport, render_frame, render_frame_passes};
+pub use frame::{
+    FrameSoFar, PASS_SPP, PassReport, render_frame, render_frame_passes, render_frame_until,
+};
 pub use provenance::provenance;
 pub use rgb::Rgb;
 pub use scene::{Assets, Scene};

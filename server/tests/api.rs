@@ -140,6 +140,14 @@ async fn bad_input_gets_a_clear_4xx_and_leaves_existing_jobs_untouched() {
             "scene.objects[0].transform.scale[0]: must be between",
         ),
         (
+            "an icosphere carried past the scene's extent",
+            with_scene(&|b| {
+                b["scene"]["objects"][0]["transform"] = json!({"translate": [999_999.5, 0, 0]})
+            }),
+            StatusCode::BAD_REQUEST,
+            "scene.objects[0].transform: places the shape's bounding sphere (radius 1e0",
+        ),
+        (
             "spp beyond the one bound",
             with_scene(&|b| b["scene"]["film"]["spp"] = json!(65537)),
             StatusCode::BAD_REQUEST,

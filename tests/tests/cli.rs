@@ -530,3 +530,45 @@ async fn jobs_are_named_listed_paused_reprioritised_fetched_by_name_and_deleted(
     let listed: Vec<JobInfo> = serde_json::from_slice(&out.stdout).unwrap();
     assert!(listed.is_empty(), "{}", text(&out));
 }
+
+/// With `$USER` unset, `spindle submit` names the account the system says runs it (`id -un`,
+/// the ground truth), and `spindle jobs` lists the newest job first.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_submitter_is_the_account_name_when_user_is_unset_and_jobs_list_newest_first() {
+    let id_un = match Command::new("id").arg("-un").output() {
+        Ok(out) if out.status.success() => out,
+        _ => {
+            eprintln!("skipped: `id -un` does not name the account");
+            return;
+        }
+    };
+    let account = String::from_utf8_lossy(&id_un.stdout).trim().to_string();
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write_scene(dir.path(), 16, 16, 1);
+    let s = scene.to_str().unwrap();
+    let farm = Farm::start(5.0).await.unwrap();
+    let submit = |name: &str| {
+        let mut cmd = Command::new(binary("spindle"));
+        cmd.args(["submit", s, "--name", name])
+            .env_remove("USER")
+            .env("SPINDLE_SERVER", farm.base())
+            .env("SPINDLE_TOKEN", &farm.client_token);
+        cmd.output().unwrap()
+    };
+    let first = submit("older");
+    assert!(first.status.success(), "{}", text(&first));
+    let second = submit("newer");
+    assert!(second.status.success(), "{}", text(&second));
+
+    let out = spindle(&["jobs", "--json"], Some(&farm)).await;
+    let listed: Vec<JobInfo> = serde_json::from_slice(&out.stdout).unwrap();
+    let names: Vec<&str> = listed.iter().map(|j| j.name.as_str()).collect();
+    assert_eq!(names, ["newer", "older"], "{}", text(&out));
+    for job in &listed {
+        assert_eq!(job.submitter.as_deref(), Some(account.as_str()));
+    }
+    let out = spindle(&["jobs", "--limit", "1", "--json"], Some(&farm)).await;
+    let listed: Vec<JobInfo> = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(listed.len(), 1);
+    assert_eq!(listed[0].name, "newer");
+}

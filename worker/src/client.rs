@@ -28,6 +28,11 @@ const CONNECT_TIMEOUT: Duration = Duration::from_secs(5);
 const REQUEST_TIMEOUT: Duration = Duration::from_secs(30);
 /// Asset downloads may be large meshes on a slow link.
 const ASSET_TIMEOUT: Duration = Duration::from_secs(600);
+/// A pooled connection idle this long is closed rather than reused: well inside the
+/// coordinator's own idle close (its header timeout, 10 s by default), so no request is sent on
+/// a connection the coordinator is closing at that moment, which fails it with "connection
+/// closed before message completed".
+const POOL_IDLE_TIMEOUT: Duration = Duration::from_secs(4);
 /// Slack on top of the long-poll wait before a lease request counts as lost.
 const LONG_POLL_SLACK: Duration = Duration::from_secs(15);
 /// The most bytes a previous pass's result may inflate to: a 256-pixel tile's layers (f32) and
@@ -142,6 +147,7 @@ impl Client {
             .map_err(|e| ClientError::Unreachable(format!("{e:#}")))?
             .connect_timeout(CONNECT_TIMEOUT)
             .timeout(REQUEST_TIMEOUT)
+            .pool_idle_timeout(POOL_IDLE_TIMEOUT)
             .build()
             .map_err(|e| ClientError::Unreachable(error_chain(&e)))?;
         Ok(Client {

@@ -573,7 +573,19 @@ fn transform_values_are_checked() {
             word,
         );
     }
-    assert!(with("/objects/1/transform/scale/0", json!(1e6)).is_ok());
+    // The largest scale is a valid scale; on this unit sphere lifted by 1 it carries the
+    // shape's bounding sphere past the extent, which is refused at the transform.
+    rejects(
+        "/objects/1/transform/scale/0",
+        json!(1e6),
+        "objects[1].transform",
+        "bounding sphere",
+    );
+    let mut small = full_scene();
+    small["objects"][1]["shape"]["radius"] = json!(0.5);
+    small["objects"][1]["transform"]["scale"][0] = json!(1e6);
+    small["objects"][1]["transform"]["translate"] = json!([0, 0, 0]);
+    assert!(SceneDescription::from_json(&small.to_string()).is_ok());
     assert!(with("/objects/1/transform/scale/0", json!(-1e-6)).is_ok());
     rejects(
         "/objects/1/transform/translate/1",
@@ -984,4 +996,42 @@ fn the_quick_test_by_radius_admits_only_what_the_scan_admits() {
     }
     // Both ways are taken: the quick test is not vacuous, and it leaves some to the scan.
     assert!(admitted > 100 && scanned > 100, "{admitted} {scanned}");
+}
+
+/// A procedural shape carried past the extent by its transform is refused at validation (so by
+/// the coordinator at submission, as the renderer would at build), naming the transform; the
+/// bound is its bounding sphere, exact for an icosphere's vertices.
+#[test]
+fn a_procedural_shape_past_the_extent_is_refused_naming_its_transform() {
+    let place = |shape: Value, translate: f64| {
+        let mut scene = full_scene();
+        scene["objects"][0]["shape"] = shape;
+        scene["objects"][0]["transform"] = json!({"translate": [translate, 0, 0]});
+        SceneDescription::from_json(&scene.to_string())
+    };
+    let ico = json!({"type": "icosphere", "radius": 10, "subdivisions": 1});
+    assert!(place(ico.clone(), 1e6 - 11.0).is_ok());
+    let e = place(ico, 1e6 - 9.0).unwrap_err();
+    assert_eq!(e.path, "objects[0].transform", "{e}");
+    assert!(e.problem.contains("bounding sphere (radius 1e1"), "{e}");
+    // The bumps and the waves count: 10 · (1 + 0.5) = 15; the box's half diagonal
+    // √(1 + (1 + 0.5)² + 1) = 2.06.
+    let bumpy = json!({"type": "bumpy_sphere", "radius": 10, "subdivisions": 1,
+                       "amplitude": 0.5, "frequency": 1});
+    assert!(place(bumpy.clone(), 1e6 - 16.0).is_ok());
+    assert!(place(bumpy, 1e6 - 14.0).is_err());
+    let wavy = json!({"type": "box", "size": [2, 2, 2],
+                      "waves": {"amplitude": 0.5, "wavelength": 1, "segments": 2}});
+    assert!(place(wavy.clone(), 1e6 - 2.1).is_ok());
+    assert!(place(wavy, 1e6 - 2.0).is_err());
+    assert!(
+        (procedural_radius(&Shape::Box {
+            size: [2.0, 2.0, 2.0],
+            waves: None
+        })
+        .unwrap()
+            - 3f64.sqrt())
+        .abs()
+            < 1e-15
+    );
 }
