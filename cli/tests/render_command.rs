@@ -314,7 +314,7 @@ fn threads_size_the_render_and_change_no_pixel() {
     let reference = layers(&dir.path().join("one.exr"));
     assert!(reference[0].iter().any(|&v| v > 0.0));
     // Alpha is there and not trivial: the objects cover some pixels and leave others.
-    assert!(reference[4].iter().any(|&a| a > 0.0) && reference[4].iter().any(|&a| a < 1.0));
+    assert!(reference[5].iter().any(|&a| a > 0.0) && reference[5].iter().any(|&a| a < 1.0));
     assert_eq!(layers(&dir.path().join("two.exr")), reference);
     assert_eq!(layers(&dir.path().join("farm.exr")), reference);
     // The headers say the same too: the file does not depend on the threads, but for

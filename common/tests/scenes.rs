@@ -46,6 +46,7 @@ fn every_example_scene_loads_and_validates() {
             "bumpy-sphere.json",
             "caustic.json",
             "glass-sphere.json",
+            "jade.json",
             "pool-full.json",
             "pool.json",
             "tiny.json"

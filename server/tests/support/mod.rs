@@ -326,6 +326,7 @@ pub fn fake_tile(rect: TileRect, index: u32) -> TilePixels {
         &mut pixels.total,
         &mut pixels.surface,
         &mut pixels.single_scatter,
+        &mut pixels.multiple_scatter,
         &mut pixels.stderr,
         &mut pixels.alpha,
     ]
