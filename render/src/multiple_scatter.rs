@@ -128,16 +128,16 @@ pub fn multiple_scatter(
     };
     let medium = dielectric.medium;
     let settings = &scene.integrator().multiple_scatter;
+    let walk = Walk {
+        scene,
+        object: segment.object,
+        model,
+        max_order: settings.max_order,
+    };
     let mut total = Rgb::ZERO;
     for _ in 0..settings.paths {
         let Some((t, weight)) = medium.scatter_within(segment.length, sampler.next_f64()) else {
             continue;
-        };
-        let walk = Walk {
-            scene,
-            object: segment.object,
-            model,
-            max_order: settings.max_order,
         };
         total += walk.from(
             segment.origin + segment.dir * t,

@@ -169,6 +169,11 @@ const RADIANCE: f64 = 1.0;
 /// sampling with 4 stratified points per segment (unbiased, and 16 times cheaper than its
 /// default 64, which make it ten times slower than the interval method here).
 fn ball(method: &str) -> Scene {
+    ball_up_to(1024, method)
+}
+
+/// [`ball`] with orders up to `max_order`.
+fn ball_up_to(max_order: u32, method: &str) -> Scene {
     build(json!({
         "camera": {"position": [0, 0, 5], "look_at": [0, 0, 0], "fov_y": 18},
         "film": {"width": 6, "height": 6, "spp": 1},
@@ -181,7 +186,7 @@ fn ball(method: &str) -> Scene {
                          "phase": {"type": "hg", "g": G}}}}],
         "integrator": {"internal_reflections": 2,
                        "single_scatter": {"samples_per_segment": 4},
-                       "multiple_scatter": {"max_order": 1024, "method": method}}
+                       "multiple_scatter": {"max_order": max_order, "method": method}}
     }))
 }
 
@@ -274,23 +279,7 @@ fn image_mean(pixels: &[(f64, f64)]) -> (f64, f64) {
 #[test]
 fn the_other_layers_do_not_depend_on_multiple_scattering() {
     let on = ball("auto");
-    let off = {
-        let mut desc: spindle_common::scene::SceneDescription = serde_json::from_value(json!({
-            "camera": {"position": [0, 0, 5], "look_at": [0, 0, 0], "fov_y": 18},
-            "film": {"width": 6, "height": 6, "spp": 1},
-            "lights": [{"type": "sphere", "center": [3, 3, 0], "radius": LIGHT_RADIUS,
-                        "radiance": [RADIANCE, RADIANCE, RADIANCE]}],
-            "objects": [{"shape": {"type": "icosphere", "radius": 1, "subdivisions": 3},
-                         "material": {"type": "dielectric", "eta": ETA, "medium": {
-                             "sigma_t": [SIGMA_T, SIGMA_T, SIGMA_T],
-                             "albedo": [ALBEDO, ALBEDO, ALBEDO],
-                             "phase": {"type": "hg", "g": G}}}}],
-            "integrator": {"internal_reflections": 2}
-        }))
-        .unwrap();
-        desc.integrator.multiple_scatter.max_order = 1;
-        Scene::build(&desc, &Assets::new()).unwrap()
-    };
+    let off = ball_up_to(1, "auto");
     for s in 0..64 {
         let ray = on.camera().ray(2.5 + (s % 8) as f64 / 8.0, 3.1);
         let mut stats = RenderStats::default();
