@@ -15,6 +15,7 @@ use glam::DVec3;
 
 use crate::bvh::Bvh;
 use crate::mesh::TriangleMesh;
+use crate::ray::Ray;
 
 /// A point counts as inside a mesh when its winding number is above this.
 pub const INSIDE_WINDING: f64 = 0.5;
@@ -60,11 +61,11 @@ pub const TOUCHING: f64 = 1e-7;
 /// point or along a line (a sphere resting on a face) does not count.
 pub fn surfaces_touch(a: &TriangleMesh, a_bvh: &Bvh, b: &TriangleMesh, b_bvh: &Bvh) -> bool {
     let ((a_lo, a_hi), (b_lo, b_hi)) = (a.bounds(), b.bounds());
-    if a_hi.cmplt(b_lo).any() || b_hi.cmplt(a_lo).any() {
-        return false;
-    }
     let size = (a_hi - a_lo).max_element().max((b_hi - b_lo).max_element());
     let tolerance = TOUCHING * size;
+    if (a_hi + tolerance).cmplt(b_lo).any() || (b_hi + tolerance).cmplt(a_lo).any() {
+        return false;
+    }
     let centroid_on = |mesh: &TriangleMesh, other: &Bvh| {
         (0..mesh.triangle_count()).any(|t| {
             let Some(normal) = mesh.geometric_normal(t).try_normalize() else {
@@ -76,6 +77,47 @@ pub fn surfaces_touch(a: &TriangleMesh, a_bvh: &Bvh, b: &TriangleMesh, b_bvh: &B
         })
     };
     centroid_on(a, b_bvh) || centroid_on(b, a_bvh)
+}
+
+/// The largest distance between a triangle centroid of `a` that lies within [`TOUCHING`] of the
+/// surface of `b` (along the triangle's normal) and that surface: 0 where the surfaces coincide
+/// exactly, and 0 when they do not touch at all. `b_bvh` is `b`'s BVH.
+pub fn contact_gap(a: &TriangleMesh, b: &TriangleMesh, b_bvh: &Bvh) -> f64 {
+    let ((a_lo, a_hi), (b_lo, b_hi)) = (a.bounds(), b.bounds());
+    let size = (a_hi - a_lo).max_element().max((b_hi - b_lo).max_element());
+    let tolerance = TOUCHING * size;
+    (0..a.triangle_count())
+        .filter_map(|t| {
+            let normal = a.geometric_normal(t).try_normalize()?;
+            let [p, q, r] = a.corners(t);
+            let ray = Ray::new((p + q + r) / 3.0 - tolerance * normal, normal);
+            let hit = b_bvh.closest_hit_within(&ray, 2.0 * tolerance)?;
+            Some((hit.t - tolerance).abs())
+        })
+        .fold(0.0, f64::max)
+}
+
+/// Inside a mesh's largest triangles, this share of the mesh's size below the surface, lies a
+/// point of its inside ([`interior_point`]).
+pub const INTERIOR_DEPTH: f64 = 1e-6;
+
+/// A point strictly inside the closed mesh `mesh`: just below the centroid of one of its largest
+/// triangles, the first of them where the winding number says inside; `None` for a mesh that
+/// has no inside there (open, or thinner than [`INTERIOR_DEPTH`]). Unlike a vertex, it tells
+/// which medium holds the object even where its surface lies on another's.
+pub fn interior_point(mesh: &TriangleMesh) -> Option<DVec3> {
+    let (lo, hi) = mesh.bounds();
+    let depth = INTERIOR_DEPTH * (hi - lo).max_element();
+    let mut by_area: Vec<(f64, usize)> = (0..mesh.triangle_count())
+        .map(|t| (mesh.geometric_normal(t).length(), t))
+        .collect();
+    by_area.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.cmp(&y.1)));
+    by_area.into_iter().take(8).find_map(|(_, t)| {
+        let normal = mesh.geometric_normal(t).try_normalize()?;
+        let [p, q, r] = mesh.corners(t);
+        let point = (p + q + r) / 3.0 - depth * normal;
+        (winding_number(mesh, point) > INSIDE_WINDING).then_some(point)
+    })
 }
 
 /// An edge's ends are moved this share of its length inward before it is tested, so an end on

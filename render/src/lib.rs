@@ -9,7 +9,9 @@
 
 pub mod bvh;
 pub mod camera;
+pub mod contact;
 pub mod containment;
+pub mod crossing;
 pub mod flat_face;
 pub mod frame;
 pub mod fresnel;

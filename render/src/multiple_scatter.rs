@@ -30,6 +30,7 @@ use spindle_common::scene::SecondaryMethod;
 use spindle_common::stats::RenderStats;
 
 use crate::Rgb;
+use crate::crossing::Crossing;
 use crate::fresnel::{reflect, reflectance};
 use crate::medium::Flight;
 use crate::ray::Ray;
@@ -219,25 +220,30 @@ impl Walk<'_> {
                 }
                 Flight::Through { weight } => {
                     beta *= weight;
-                    let (object, triangle) = scene.locate(hit.triangle);
-                    if object != self.object || reflections >= scene.integrator().max_depth {
+                    let crossing = Crossing::at(scene, &hit, ray.dir);
+                    // The path goes on only off the medium's own boundary (shared interfaces
+                    // included), not off an object inside it.
+                    let own = matches!(
+                        scene.objects()[crossing.object].material,
+                        Material::Dielectric(_)
+                    ) && crossing.internal
+                        && crossing.before == Some(self.object);
+                    if !own || reflections >= scene.integrator().max_depth {
                         return sum;
                     }
                     reflections += 1;
-                    let mesh = &scene.objects()[object].mesh;
-                    let p = mesh.point(triangle, hit.a, hit.b);
-                    let geometric = mesh.geometric_normal(triangle).normalize_or_zero();
-                    let shading = mesh.shading_normal(triangle, hit.a, hit.b);
-                    let facing = if ray.dir.dot(shading) < 0.0 {
-                        shading
-                    } else {
-                        -shading
-                    };
-                    // From inside the medium out: the index of the medium around over this one's.
-                    let eta = 1.0 / scene.relative_eta(object);
+                    let Crossing {
+                        p,
+                        geometric,
+                        facing,
+                        eta,
+                        ..
+                    } = crossing;
+                    // From inside the medium out: the index beyond over this one's.
                     beta *= reflectance(-ray.dir.dot(facing), eta);
                     let dir = reflect(ray.dir, facing);
-                    if dir.dot(geometric) >= 0.0 || beta.max_element() <= 0.0 {
+                    if crossing.medium_toward(dir) != Some(self.object) || beta.max_element() <= 0.0
+                    {
                         // The shading normal sends the reflection out of the medium.
                         return sum;
                     }

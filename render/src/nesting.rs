@@ -12,6 +12,7 @@
 
 use glam::DVec3;
 
+use crate::contact::Contacts;
 use crate::containment;
 use crate::flat_face::FlatFaces;
 use crate::light::Light;
@@ -58,12 +59,18 @@ pub fn route(
 }
 
 /// `outer[o]`: the dielectric object whose medium surrounds object `o` (dielectric or not), if
-/// any.
-pub fn outer_media(objects: &[Object]) -> Vec<Option<usize>> {
+/// any. An object's partners in a shared interface (`contact`) are beside it, not around it,
+/// though its vertices lie on their surfaces.
+pub fn outer_media(objects: &[Object], contacts: &Contacts) -> Vec<Option<usize>> {
     objects
         .iter()
         .enumerate()
-        .map(|(i, inner)| innermost_holding(objects, *inner.mesh.positions().first()?, Some(i)))
+        .map(|(i, inner)| {
+            let vertex = *inner.mesh.positions().first()?;
+            innermost_holding_but(objects, vertex, |k| {
+                k == i || contacts.partners(i).contains(&k)
+            })
+        })
         .collect()
 }
 
@@ -71,6 +78,15 @@ pub fn outer_media(objects: &[Object]) -> Vec<Option<usize>> {
 /// (`containment::holds`: inside or on its surface): of several, the one with the smallest
 /// bounding box (module doc).
 pub fn innermost_holding(objects: &[Object], p: DVec3, except: Option<usize>) -> Option<usize> {
+    innermost_holding_but(objects, p, |k| Some(k) == except)
+}
+
+/// [`innermost_holding`] among the objects `k` for which `skip(k)` is false.
+fn innermost_holding_but(
+    objects: &[Object],
+    p: DVec3,
+    skip: impl Fn(usize) -> bool,
+) -> Option<usize> {
     let volume = |o: &Object| {
         let (lo, hi) = o.mesh.bounds();
         (hi - lo).element_product()
@@ -79,7 +95,7 @@ pub fn innermost_holding(objects: &[Object], p: DVec3, except: Option<usize>) ->
         .iter()
         .enumerate()
         .filter(|&(k, outer)| {
-            Some(k) != except
+            !skip(k)
                 && matches!(outer.material, Material::Dielectric(_))
                 && containment::holds(&outer.mesh, p)
         })

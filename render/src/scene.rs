@@ -20,6 +20,7 @@ use spindle_common::validate::{
 use crate::Rgb;
 use crate::bvh::Bvh;
 use crate::camera::Camera;
+use crate::contact::Contacts;
 use crate::containment;
 use crate::flat_face::FlatFaces;
 use crate::interfaces::{self, SecondInterface};
@@ -128,6 +129,8 @@ pub struct Scene {
     light_media: Vec<Option<usize>>,
     /// Per object, the dielectric object whose medium surrounds it (`nesting`), if any.
     outer: Vec<Option<usize>>,
+    /// The shared interfaces between media whose surfaces coincide (`contact`).
+    contacts: Contacts,
     /// Per object, its flat faces if a dielectric lies inside it (empty otherwise).
     flat_faces: Vec<FlatFaces>,
     /// Objects and lights whose light would cross a second dielectric interface.
@@ -244,6 +247,7 @@ impl Scene {
             .collect::<Result<Vec<_>, _>>()?;
 
         let light_centers: Vec<DVec3> = lights.iter().map(Light::center).collect();
+        let contacts = Contacts::find(&objects, scale)?;
         check_media_layout(&objects, camera.position(), &light_centers)?;
         let camera_medium = nesting::innermost_holding(&objects, camera.position(), None);
         let mut light_media = Vec::with_capacity(lights.len());
@@ -251,7 +255,7 @@ impl Scene {
             check_straddle(&objects, j, light)?;
             light_media.push(nesting::innermost_holding(&objects, light.center(), None));
         }
-        let outer = nesting::outer_media(&objects);
+        let outer = nesting::outer_media(&objects, &contacts);
         let flat_faces: Vec<FlatFaces> = (0..objects.len())
             .map(|q| {
                 let surrounds_dielectric = objects.iter().enumerate().any(|(o, object)| {
@@ -290,6 +294,7 @@ impl Scene {
             camera_medium,
             light_media,
             outer,
+            contacts,
             flat_faces,
             second_interfaces,
             beam_tables,
@@ -380,6 +385,14 @@ impl Scene {
     /// The dielectric object whose medium surrounds object `o`, if any (`nesting`).
     pub fn outer(&self, o: usize) -> Option<usize> {
         self.outer[o]
+    }
+
+    /// The dielectric object whose medium lies beyond object `o`'s surface at `p` (with the
+    /// unit geometric normal `normal` there): a partner whose surface coincides there
+    /// (`contact`), else the medium around `o`.
+    pub fn across(&self, o: usize, p: DVec3, normal: DVec3) -> Option<usize> {
+        self.contacts
+            .across(&self.objects, o, p, normal, self.outer[o], self.scale)
     }
 
     /// Object `o`'s index relative to the medium around it (1 if it is not a dielectric).
@@ -607,9 +620,8 @@ fn build_object(
 mod tests;
 
 /// Each dielectric object's medium must be apart from every other's or wholly inside it (the
-/// region two crossing surfaces both bound has no one medium) without touching it over an area
-/// (two coincident surfaces would be one interface between two media, which is not modelled: a
-/// ray would meet either at random), and must not lie inside a closed
+/// region two crossing surfaces both bound has no one medium; surfaces that touch are sorted by
+/// `contact::Contacts::find`), and must not lie inside a closed
 /// diffuse object that the camera is outside of or that holds no light (nothing there could be
 /// seen or lit; a closed room around the camera and a light is fine). Refused naming both objects.
 fn check_media_layout(
@@ -622,20 +634,6 @@ fn check_media_layout(
         for (k, other) in objects.iter().enumerate() {
             if k == i {
                 continue;
-            }
-            let touch =
-                || containment::surfaces_touch(&inner.mesh, &inner.bvh, &other.mesh, &other.bvh);
-            if dielectric(other) && k < i && touch() {
-                return Err(SceneError::new(
-                    inner.name.clone(),
-                    format!(
-                        "its surface touches the surface of {} over an area: two media in \
-                         contact (a liquid against a glass's wall) are not modelled as one \
-                         interface; leave a gap between them (the inner object slightly \
-                         smaller), which renders as a thin film of air",
-                        other.name
-                    ),
-                ));
             }
             let cross =
                 || containment::surfaces_cross(&inner.mesh, &inner.bvh, &other.mesh, &other.bvh);

@@ -8,11 +8,11 @@
 //! [`BRANCH_CUTOFF`]. Inside a medium, reflections off the boundary are followed up to
 //! `integrator.internal_reflections` times per visit (total internal reflection counts as one).
 //!
-//! Media nest (`nesting`): an object's surface is the interface between its medium and the one
-//! around it (the air, or the medium it is nested in), crossed with the index of the first
-//! relative to the second, η = `Scene::relative_eta`. Radiance-mode bookkeeping (radiance/n² is
-//! invariant): refracting *into* an object multiplies the throughput by `(1 − F)/η²`, refracting
-//! *out* by `(1 − F)·η²`.
+//! Media nest (`nesting`) and meet (`contact`): an object's surface is the interface between its
+//! medium and the one beyond it at the point hit (the one around it, or a partner's whose
+//! surface coincides there), crossed with the index of the medium entered over the one left
+//! (`crossing`). Radiance-mode bookkeeping (radiance/n² is invariant): refracting multiplies the
+//! throughput by `(1 − F)/η²` with that relative η.
 //!
 //! Every straight piece of the path inside a medium is a [`Segment`] handed to
 //! [`scatter::single_scatter`]; its result times the segment throughput is the `single_scatter`
@@ -34,6 +34,7 @@ use spindle_common::stats::RenderStats;
 
 use crate::Rgb;
 use crate::bvh::Hit;
+use crate::crossing::Crossing;
 use crate::fresnel::{reflect, reflectance, refract};
 use crate::multiple_scatter;
 use crate::ray::Ray;
@@ -245,30 +246,26 @@ fn interact(
                 return;
             }
             // Which side the ray arrives from is geometry's call; the optics use the shading
-            // normal turned to face the ray. The surface parts the object's medium from the
-            // medium around it.
-            let entering = ray.dir.dot(geometric) < 0.0;
-            let relative = scene.relative_eta(object);
-            let eta = if entering { relative } else { 1.0 / relative };
-            let around = scene.outer(object);
-            let facing = if ray.dir.dot(shading) < 0.0 {
-                shading
-            } else {
-                -shading
-            };
+            // normal turned to face the ray. The surface parts the medium the path is in from
+            // the one beyond it there (`crossing`).
+            let crossing = Crossing::at(scene, hit, ray.dir);
+            let Crossing {
+                facing,
+                internal: reflects_inside,
+                eta,
+                ..
+            } = crossing;
             let fresnel = reflectance(-ray.dir.dot(facing), eta);
             let depth = state.depth + 1;
-            let inside_after = |dir: DVec3| {
-                if dir.dot(geometric) < 0.0 {
-                    Some(object)
-                } else {
-                    around
-                }
-            };
+            let inside_after = |dir: DVec3| crossing.medium_toward(dir);
 
             // Reflection: outside, always a candidate; inside, one more internal reflection.
-            let internal = if entering { 0 } else { state.internal + 1 };
-            if entering || state.internal < scene.integrator().internal_reflections {
+            let internal = if reflects_inside {
+                state.internal + 1
+            } else {
+                0
+            };
+            if !reflects_inside || state.internal < scene.integrator().internal_reflections {
                 let throughput = state.throughput * fresnel;
                 let dir = reflect(ray.dir, facing);
                 if significant(scene, throughput, inside_after(dir)) {
@@ -285,12 +282,7 @@ fn interact(
 
             // Refraction (none under total internal reflection), with the n² bookkeeping.
             if let Some(dir) = refract(ray.dir, facing, eta) {
-                let n2 = if entering {
-                    1.0 / (relative * relative)
-                } else {
-                    relative * relative
-                };
-                let throughput = state.throughput * ((1.0 - fresnel) * n2);
+                let throughput = state.throughput * ((1.0 - fresnel) / (eta * eta));
                 if significant(scene, throughput, inside_after(dir)) {
                     let next = PathState {
                         inside: inside_after(dir),

@@ -112,3 +112,53 @@ fn surfaces_cross_only_where_media_overlap() {
         assert_eq!(surfaces_cross(&b, &b_bvh, &a, &a_bvh), expected);
     }
 }
+
+#[test]
+fn an_interior_point_lies_inside_even_where_the_surface_is_shared() {
+    let cube = |lo: DVec3, hi: DVec3| {
+        let positions: Vec<DVec3> = (0..8)
+            .map(|i| {
+                DVec3::new(
+                    if i & 1 == 1 { hi.x } else { lo.x },
+                    if i & 2 == 2 { hi.y } else { lo.y },
+                    if i & 4 == 4 { hi.z } else { lo.z },
+                )
+            })
+            .collect();
+        let triangles = vec![
+            [0, 2, 1],
+            [1, 2, 3],
+            [4, 5, 6],
+            [5, 7, 6],
+            [0, 1, 4],
+            [1, 5, 4],
+            [2, 6, 3],
+            [3, 6, 7],
+            [0, 4, 2],
+            [2, 4, 6],
+            [1, 3, 5],
+            [3, 7, 5],
+        ];
+        TriangleMesh::new(positions, None, triangles).expect("cube")
+    };
+    let below = cube(DVec3::new(0.0, 0.0, -1.0), DVec3::new(1.0, 1.0, 0.0));
+    let above = cube(DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.0, 1.0, 1.0));
+    assert!(
+        winding_number(&below, DVec3::new(0.5, 0.5, -0.5)) > 0.99,
+        "wound outward"
+    );
+    // Every vertex of `above` on the shared face is held by `below`; its interior point is not.
+    let shared_vertex = above.positions()[0];
+    assert!(holds(&below, shared_vertex));
+    let q = interior_point(&above).expect("a closed cube has an inside");
+    assert!(winding_number(&above, q) > 0.99 && !holds(&below, q), "{q}");
+    // The gap between coincident faces is zero; between faces 1e-8 apart, 1e-8.
+    let below_bvh = Bvh::build(&(0..12).map(|t| below.corners(t)).collect::<Vec<_>>());
+    assert!(contact_gap(&above, &below, &below_bvh) < 1e-20);
+    let lifted = cube(DVec3::new(0.0, 0.0, 1e-8), DVec3::new(1.0, 1.0, 1.0));
+    let gap = contact_gap(&lifted, &below, &below_bvh);
+    assert!((gap - 1e-8).abs() < 1e-15, "{gap:e}");
+    // Apart by more than TOUCHING: no contact, no gap.
+    let apart = cube(DVec3::new(0.0, 0.0, 1e-3), DVec3::new(1.0, 1.0, 1.0));
+    assert_eq!(contact_gap(&apart, &below, &below_bvh), 0.0);
+}
