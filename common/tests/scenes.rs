@@ -49,6 +49,7 @@ fn every_example_scene_loads_and_validates() {
             "jade.json",
             "pool-full.json",
             "pool.json",
+            "tank.json",
             "tiny.json"
         ]
     );
