@@ -13,6 +13,7 @@
 
 use std::f64::consts::PI;
 
+use glam::DVec3;
 use serde_json::{Value, json};
 use spindle_common::stats::RenderStats;
 use spindle_render::multiple_scatter::phase_sampling;
@@ -34,12 +35,8 @@ fn mean_and_error(values: &[f64]) -> (f64, f64) {
     (mean, (var / n).sqrt())
 }
 
-/// Chandrasekhar's H-function of isotropic scattering with albedo `albedo`, on Gauss–Legendre
-/// nodes of [0, 1], by iterating `1/H(μ) = 1 − (ϖ/2) μ ∫₀¹ H(μ')/(μ + μ') dμ'` (the form that
-/// converges for ϖ < 1); returns a function of μ by the same quadrature (Nyström).
-fn h_function(albedo: f64) -> impl Fn(f64) -> f64 {
-    // 48-point Gauss–Legendre on [−1, 1] by Newton on P_n, mapped to [0, 1].
-    let n = 48;
+/// The `n`-point Gauss–Legendre rule mapped to [0, 1]: (node, weight) pairs, by Newton on P_n.
+fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
     let mut nodes = Vec::new();
     for i in 0..n {
         let mut x = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
@@ -61,6 +58,15 @@ fn h_function(albedo: f64) -> impl Fn(f64) -> f64 {
         let w = 2.0 / ((1.0 - x * x) * dp * dp);
         nodes.push(((x + 1.0) / 2.0, w / 2.0));
     }
+    nodes
+}
+
+/// Chandrasekhar's H-function of isotropic scattering with albedo `albedo`, on Gauss–Legendre
+/// nodes of [0, 1], by iterating `1/H(μ) = 1 − (ϖ/2) μ ∫₀¹ H(μ')/(μ + μ') dμ'` (the form that
+/// converges for ϖ < 1); returns a function of μ by the same quadrature (Nyström).
+fn h_function(albedo: f64) -> impl Fn(f64) -> f64 {
+    let n = 48;
+    let nodes = gauss_legendre(n);
     let mut h = vec![1.0; n];
     for _ in 0..500 {
         let next: Vec<f64> = nodes
@@ -292,4 +298,69 @@ fn the_other_layers_do_not_depend_on_multiple_scattering() {
             "sample {s}"
         );
     }
+}
+
+/// Energy, with albedo 1 and nothing absorbed (the issue's white-furnace check for a medium inside
+/// a dielectric): a glass slab (η 1.5, σt 1, 1 thick, 200 wide, isotropic, albedo 1) under the
+/// sun from straight above. All the light that scatters inside it leaves it, up or down, so the
+/// scattered flux out of both faces, `2π ∫₀¹ L(μ) μ dμ` over each hemisphere of directions (by
+/// Gauss–Legendre in μ; the set-up is symmetric about the normal), equals the flux the sun's
+/// beam leaves in the medium on its way down, `E (1 − R₀)(1 − e^{−τ})`, `R₀ = ((η − 1)/(η + 1))²`.
+/// (The beam's share reflected off the bottom face that scatters on its way back up is not in
+/// it: each connection to the light refracts once, with no internal reflection on the light's
+/// side — the renderer's stated model, so not in the layers either.) A walk that lost light at
+/// the boundary (a wrong internal Fresnel, total internal reflection ending a path, a missing
+/// n² on the way out) or made some would miss it; so would orders cut short.
+#[test]
+fn a_slab_that_absorbs_nothing_gives_back_all_the_light_it_scatters() {
+    let (eta, tau, irradiance): (f64, f64, f64) = (1.5, 1.0, 1.0);
+    let scene = build(json!({
+        "camera": {"position": [0, 20, 5], "look_at": [0, 0, 0], "fov_y": 1},
+        "film": {"width": 4, "height": 4, "spp": 1},
+        "lights": [{"type": "directional", "direction": [0, -1, 0],
+                    "irradiance": [irradiance, irradiance, irradiance]}],
+        "objects": [{"shape": {"type": "box", "size": [200, 1, 200]},
+                     "material": {"type": "dielectric", "eta": eta, "medium": {
+                         "sigma_t": [tau, tau, tau], "albedo": [1, 1, 1]}}}],
+        "integrator": {"max_depth": 64, "internal_reflections": 16,
+                       "multiple_scatter": {"max_order": 1024, "paths": 2}}
+    }));
+    let (samples, nodes) = (256, 8);
+    let mut stats = RenderStats::default();
+    let mut flux = [(0.0, 0.0); 2];
+    for (side, (up, face)) in [(1.0, 0.5), (-1.0, -0.5)].into_iter().enumerate() {
+        for (node, (mu, weight)) in gauss_legendre(nodes).into_iter().enumerate() {
+            let out = DVec3::new((1.0 - mu * mu).sqrt(), up * mu, 0.0);
+            let values: Vec<f64> = (0..samples)
+                .map(|i| {
+                    let ray = Ray::new(DVec3::new(0.0, face, 0.0) + 5.0 * out, -out);
+                    let mut sampler = Sampler::new(7, node as u32, side as u32, i);
+                    let r = radiance(&scene, &ray, &mut sampler, &mut stats);
+                    r.single_scatter.x + r.multiple_scatter.x
+                })
+                .collect();
+            let (l, l_err) = mean_and_error(&values);
+            let k = 2.0 * PI * weight * mu;
+            flux[side].0 += k * l;
+            flux[side].1 += (k * l_err).powi(2);
+        }
+    }
+    let r0 = ((eta - 1.0) / (eta + 1.0)).powi(2);
+    let deposited = irradiance * (1.0 - r0) * (1.0 - (-tau).exp());
+    let total = flux[0].0 + flux[1].0;
+    let error = (flux[0].1 + flux[1].1).sqrt();
+    println!(
+        "scattered out: up {:.5} ± {:.1e}, down {:.5} ± {:.1e}, total {total:.5} ± {error:.1e} \
+         against the {deposited:.5} deposited ({:+.2} %); {:.1} secondary segments per sample",
+        flux[0].0,
+        flux[0].1.sqrt(),
+        flux[1].0,
+        flux[1].1.sqrt(),
+        100.0 * (total / deposited - 1.0),
+        stats.secondary_segments as f64 / (2.0 * nodes as f64 * f64::from(samples))
+    );
+    assert!(
+        (total - deposited).abs() < 4.0 * error + 2e-3 * deposited,
+        "no more and no less light leaves than the medium scattered"
+    );
 }
