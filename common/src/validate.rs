@@ -340,7 +340,8 @@ fn check_procedural_placement(path: &str, object: &Object) -> Check {
         Some(radius) if !surely_within_extent(&object.transform, radius) => Err(SceneError::new(
             path,
             format!(
-                "places the shape's bounding sphere (radius {radius:e} about its origin) past the                  scene's extent of ±{MAX_COORDINATE:e} per coordinate (scenes/README.md)"
+                "places the shape's bounding sphere (radius {radius:e} about its origin) past \
+                 the scene's extent of ±{MAX_COORDINATE:e} per coordinate (scenes/README.md)"
             ),
         )),
         _ => Ok(()),
