@@ -121,6 +121,74 @@ fn single_scattering_under_a_flat_interface_matches_the_closed_form() {
     }
 }
 
+/// A camera segment inside the slab going *up* to the lit surface and ending on it (a camera
+/// looking up from under water, a path's segment after an internal reflection, a secondary
+/// segment of multiple scattering). Near its end the scattering point nears the surface and the
+/// path's inside leg shrinks to nothing, where the arc traced along the triangle can break down
+/// and be traced again from the segment's end: that light was once counted twice (+100 % at
+/// cos θ 0.9 and 0.99 under the sun from straight above). Closed form: from depth `D` up at
+/// `cos θ_c` for `ℓ = D / cos θ_c`, the sun's leg inside is `(D − s cos θ_c)/cos θ_V`, so the
+/// segment collects `α σ/(4π) · T_P E cos θ_L/cos θ_V · e^{−σD/cos θ_V} (1 − e^{−σ k ℓ})/(σ k)`,
+/// `k = 1 − cos θ_c / cos θ_V`.
+#[test]
+fn a_segment_that_ends_on_the_lit_surface_counts_its_light_once() {
+    let (eta, e, sigma, albedo, depth) = (1.33f64, 2.0, 0.8, 0.6, 1.0);
+    let mut worst: f64 = 0.0;
+    let mut doubled = 0;
+    for sun in [DVec3::new(0.0, -1.0, 0.0), DVec3::new(0.5, -1.0, 0.2)] {
+        let scene = scene(
+            json!([{
+                "shape": {"type": "box", "size": [100, 2, 100]},
+                "transform": {"translate": [0, -1, 0]},
+                "material": {"type": "dielectric", "eta": eta, "medium": {
+                    "sigma_t": [sigma, sigma, sigma], "albedo": [albedo, albedo, albedo]}}
+            }]),
+            json!([{"type": "directional", "direction": sun.to_array(),
+                    "irradiance": [e, e, e]}]),
+            json!({"position": [0, 5, 1], "look_at": [0, 0, 0], "fov_y": 10}),
+            json!({"method": "interval", "k": 1}),
+            Assets::new(),
+        );
+        let cos_l = -sun.normalize().y;
+        let sin_v = (1.0 - cos_l * cos_l).sqrt() / eta;
+        let cos_v = (1.0 - sin_v * sin_v).sqrt();
+        let t_p = 1.0 - fresnel_air_to(eta, cos_l);
+        let scale = albedo * sigma / (4.0 * std::f64::consts::PI) * t_p * e * cos_l / cos_v
+            * (-sigma * depth / cos_v).exp();
+        for i in 0..200 {
+            let cos_c = 0.05 + 0.945 * f64::from(i) / 199.0;
+            let dir = DVec3::new((1.0 - cos_c * cos_c).sqrt(), cos_c, 0.0);
+            let length = depth / cos_c;
+            let k = 1.0 - cos_c / cos_v;
+            let integral = if k.abs() < 1e-12 {
+                length
+            } else {
+                (1.0 - (-sigma * k * length).exp()) / (sigma * k)
+            };
+            let truth = scale * integral;
+            let segment = Segment {
+                origin: DVec3::new(0.3, -depth, 0.2),
+                dir,
+                length,
+                object: 0,
+                throughput: Rgb::ONE,
+            };
+            let mut stats = RenderStats::default();
+            let value = single_scatter(&scene, &segment, &mut Sampler::new(1, 0, 0, 0), &mut stats);
+            let error = value.x / truth - 1.0;
+            if error.abs() > 1e-4 {
+                println!("sun {sun}, cos θ_c {cos_c:.4}: {error:+.3e}");
+            }
+            if error > 0.5 {
+                doubled += 1;
+            }
+            worst = worst.max(error.abs());
+        }
+    }
+    println!("worst relative error {worst:.2e}; {doubled} segments counted twice");
+    assert!(worst < 1e-3, "worst relative error {worst:e}");
+}
+
 /// A diffuse floor under the sun: radiance `ρ/π · E cos θ` wherever the camera looks, for
 /// parallel rays and for the sun's 0.53° disk (whose radiance is set so that its irradiance is
 /// `E`); looking into the disk, the camera sees `E / (π sin² α)`.

@@ -132,6 +132,10 @@ pub fn triangle_intervals_with(
     }
 
     // Trace each arc from its entry, split it at folds, and emit its monotone branches.
+    // `unfinished[i]`: the intervals emitted by the arc started at boundary point `i` when that
+    // arc stopped short of any boundary point (its trace broke down, as next to the end of a
+    // segment that ends on the surface, where the path's inside leg shrinks to nothing).
+    let mut unfinished: [Option<(usize, usize)>; 16] = [None; 16];
     for start in 0..boundary.len() {
         let Some(&b) = boundary.get(start) else {
             continue;
@@ -157,19 +161,41 @@ pub fn triangle_intervals_with(
             g_t: Some(b.g.t),
         };
         arc.push_or_count(entry, &mut stats.capacity_drops);
-        if let Some(exit) = tracer.trace(b.x, b.g, sigma, &mut arc, &mut seeds, stats) {
-            // The exit is another boundary point: do not trace the arc again from there.
+        let exit = tracer.trace(b.x, b.g, sigma, &mut arc, &mut seeds, stats);
+        if let Some(exit) = exit {
+            // The exit is another boundary point: do not trace the arc again from there. If an
+            // arc started there and broke down, it was this curve traced from its other end, a
+            // part of this arc: its intervals are dropped, or they would count twice.
             for other in 0..boundary.len() {
                 if let Some(o) = boundary.get_mut(other)
-                    && !o.consumed
+                    && other != start
                     && tracer.distance(o.x, exit) < 1e-6
                 {
-                    o.consumed = true;
-                    break;
+                    if !o.consumed {
+                        o.consumed = true;
+                        break;
+                    }
+                    if let Some(dropped) = unfinished.get_mut(other).and_then(Option::take) {
+                        intervals = without(&intervals, dropped);
+                        let removed = dropped.1 - dropped.0;
+                        for (from, to) in unfinished.iter_mut().flatten() {
+                            if *from >= dropped.1 {
+                                *from -= removed;
+                                *to -= removed;
+                            }
+                        }
+                        break;
+                    }
                 }
             }
         }
+        let first = intervals.len();
         tracer.emit_branches(&arc, sigma, &mut intervals, stats);
+        if exit.is_none()
+            && let Some(slot) = unfinished.get_mut(start)
+        {
+            *slot = Some((first, intervals.len()));
+        }
     }
 
     // Arcs that touch no boundary: trace both ways from an interior seed and join the halves.
@@ -207,6 +233,17 @@ pub fn triangle_intervals_with(
     }
     reach_the_plane(&mut intervals, plane_depth(patch, ends), range, searched);
     intervals
+}
+
+/// `intervals` without those at indices `from..to`.
+fn without(intervals: &Intervals, (from, to): (usize, usize)) -> Intervals {
+    let mut kept = Intervals::default();
+    for (i, interval) in intervals.iter().enumerate() {
+        if !(from..to).contains(&i) {
+            kept.push(*interval);
+        }
+    }
+    kept
 }
 
 /// Widens the reach of every interval that ends where `plane_t_range` cut the `searched` range
