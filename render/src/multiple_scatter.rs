@@ -20,7 +20,10 @@
 //!   leaves the medium is not followed (the light it would find on leaving is what the
 //!   single-scattering integral of its last segment already holds), nor one that meets another
 //!   object inside the medium (a nested object or a diffuse surface);
-//! * at most `integrator.max_depth` internal reflections per path.
+//! * at most `integrator.max_depth` internal reflections per path;
+//! * a diffuse surface inside the medium that a camera path reaches (a pool's floor under milky
+//!   water) gets the light scattered in the medium on its way there ([`onto_surface`]): orders
+//!   1 to `max_order − 1`, its reflection counted as one more.
 //!
 //! Random numbers: each camera segment's paths draw from a [`Sampler::fork`], so the other
 //! layers are the same bits with multiple scattering on or off, and a pixel's value stays a
@@ -37,6 +40,7 @@ use crate::ray::Ray;
 use crate::sampler::Sampler;
 use crate::scatter;
 use crate::scatter::plan::{INDEX_MATCHED, Model, plan_for};
+use crate::scatter::receiver::Receiver;
 use crate::scene::{Material, Scene};
 use crate::segment::Segment;
 
@@ -151,6 +155,66 @@ pub fn multiple_scatter(
     total / f64::from(settings.paths)
 }
 
+/// Radiance leaving a Lambertian surface inside the medium of `medium_object` toward the camera
+/// (its throughput not applied), from light that scattered in the medium on its way to the
+/// surface (a pool's floor under milky water, a pebble in jade): the light arriving in a
+/// cosine-distributed direction drawn on the camera's side of the surface — the single-scattering
+/// integral along the ray from the surface to where it leaves the medium, and the walk from a
+/// scattering on it — times the reflectance. The reflection counts as one of the `max_order`
+/// scatterings, so the medium adds orders 1 to `max_order − 1`; it runs where multiple scattering
+/// runs for the medium ([`plan`]).
+pub fn onto_surface(
+    scene: &Scene,
+    medium_object: usize,
+    receiver: &Receiver,
+    sampler: &mut Sampler,
+    stats: &mut RenderStats,
+) -> Rgb {
+    let Some(model) = plan(scene, medium_object).model else {
+        return Rgb::ZERO;
+    };
+    let Material::Dielectric(dielectric) = scene.objects()[medium_object].material else {
+        return Rgb::ZERO;
+    };
+    let settings = &scene.integrator().multiple_scatter;
+    let walk = Walk {
+        scene,
+        object: medium_object,
+        model,
+        max_order: settings.max_order - 1,
+    };
+    let (s, t) = receiver.normal.any_orthonormal_pair();
+    let mut total = Rgb::ZERO;
+    for _ in 0..settings.paths {
+        let [u, v] = sampler.next_2d();
+        let first = sampler.next_f64();
+        let (r, phi) = (u.sqrt(), 2.0 * std::f64::consts::PI * v);
+        let dir = (s * (r * phi.cos()) + t * (r * phi.sin()) + receiver.normal * (1.0 - u).sqrt())
+            .normalize();
+        if dir.dot(receiver.geometric) <= 0.0 {
+            continue;
+        }
+        let ray = Ray::leaving(receiver.p, receiver.geometric, dir, scene.scale());
+        let Some(hit) = scene.bvh().closest_hit(&ray) else {
+            continue;
+        };
+        let segment = Segment {
+            origin: ray.origin,
+            dir,
+            length: hit.t,
+            object: medium_object,
+            throughput: Rgb::ONE,
+        };
+        total += walk.segment_light(&segment, sampler, stats);
+        if walk.max_order >= 2
+            && let Some((t, weight)) = dielectric.medium.scatter_within(hit.t, first)
+        {
+            total += walk.from(ray.at(t), dir, weight, sampler, stats);
+        }
+    }
+    receiver.reflectance * total / f64::from(settings.paths)
+}
+
 /// A path's fixed settings.
 struct Walk<'a> {
     scene: &'a Scene,
@@ -160,6 +224,22 @@ struct Walk<'a> {
 }
 
 impl Walk<'_> {
+    /// The single-scattering integral along a secondary segment, its capacity drops counted
+    /// apart from the camera segments'.
+    fn segment_light(
+        &self,
+        segment: &Segment,
+        sampler: &mut Sampler,
+        stats: &mut RenderStats,
+    ) -> Rgb {
+        stats.secondary_segments += 1;
+        let before = stats.capacity_drops;
+        let light = scatter::single_scatter_by(self.scene, segment, self.model, sampler, stats);
+        stats.secondary_capacity_drops += stats.capacity_drops - before;
+        stats.capacity_drops = before;
+        light
+    }
+
     /// The path from its first scattering at `x`, where it arrived travelling `arrived` (the
     /// tracing direction), with throughput `beta`: the sum over its secondary segments of
     /// throughput × the segment's single-scattering integral.
@@ -194,12 +274,7 @@ impl Walk<'_> {
                 object: self.object,
                 throughput: beta,
             };
-            stats.secondary_segments += 1;
-            let before = stats.capacity_drops;
-            let light = scatter::single_scatter_by(scene, &secondary, self.model, sampler, stats);
-            stats.secondary_capacity_drops += stats.capacity_drops - before;
-            stats.capacity_drops = before;
-            sum += beta * light;
+            sum += beta * self.segment_light(&secondary, sampler, stats);
             match medium.free_flight(hit.t, sampler.next_f64()) {
                 Flight::Scatter { t, weight } => {
                     // The segment after this scattering would add order + 2.

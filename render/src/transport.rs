@@ -27,7 +27,8 @@
 //! no light through the glass (caustics on surfaces in the air are not rendered). A diffuse
 //! surface *inside* a medium (a pool's floor) is lit by the lights in that medium directly,
 //! attenuated, and by the lights outside through the medium's boundary (`scatter::receiver`),
-//! into the `surface` layer. Dielectric surfaces must not cross (`Scene::build` refuses it).
+//! into the `surface` layer; the light that scattered in the medium on its way to the surface
+//! (`multiple_scatter::onto_surface`) goes into the `multiple_scatter` layer. Dielectric surfaces must not cross (`Scene::build` refuses it).
 
 use glam::DVec3;
 use spindle_common::stats::RenderStats;
@@ -238,6 +239,15 @@ fn interact(
                 out.surface += state.throughput
                     * scatter::receiver::through_boundary(
                         scene, &segment, &receiver, sampler, stats,
+                    );
+                // And the light that scattered in the medium on its way to the surface.
+                out.multiple_scatter += state.throughput
+                    * multiple_scatter::onto_surface(
+                        scene,
+                        medium,
+                        &receiver,
+                        &mut sampler.fork(),
+                        stats,
                     );
             }
         }

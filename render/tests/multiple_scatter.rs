@@ -16,9 +16,10 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use serde_json::{Value, json};
 use spindle_common::stats::RenderStats;
-use spindle_render::multiple_scatter::phase_sampling;
+use spindle_render::multiple_scatter::{onto_surface, phase_sampling};
 use spindle_render::ray::Ray;
 use spindle_render::sampler::Sampler;
+use spindle_render::scatter::receiver::Receiver;
 use spindle_render::transport::radiance;
 use spindle_render::{Assets, Rgb, Scene};
 
@@ -363,4 +364,81 @@ fn a_slab_that_absorbs_nothing_gives_back_all_the_light_it_scatters() {
         (total - deposited).abs() < 4.0 * error + 2e-3 * deposited,
         "no more and no less light leaves than the medium scattered"
     );
+}
+
+/// Light scattered in the water onto a floor inside it: a floor 1 below a calm water surface
+/// (η 1.33, isotropic, σt 0.8, albedo 0.6) under the sun from straight above. With `max_order`
+/// 2 the floor gets the first order alone (its reflection is the second scattering), whose
+/// irradiance is `E₁ = 2π ∫₀¹ μ dμ ∫₀^{H/μ} (σ_s/4π) E_w e^{−σ(H − sμ)} e^{−σ s} ds`,
+/// `E_w = E (1 − F₀)` the sun in the water, so the floor sends `ρ E₁ / π` toward the camera; the
+/// inner integral is closed (`e^{−σH} (1 − e^{−σH(1−μ)/μ}) / (σ(1 − μ))`), the outer one by
+/// Gauss–Legendre. With the default `max_order` the higher orders add light on top.
+#[test]
+fn light_scattered_in_the_water_reaches_a_floor_inside_it() {
+    let (eta, sigma, albedo, depth, irradiance, rho): (f64, f64, f64, f64, f64, f64) =
+        (1.33, 0.8, 0.6, 1.0, 2.0, 0.7);
+    let scene_up_to = |max_order: u32| {
+        build(json!({
+            "camera": {"position": [0, -0.5, 0.5], "look_at": [0, -1, 0], "fov_y": 20},
+            "film": {"width": 4, "height": 4, "spp": 1},
+            "lights": [{"type": "directional", "direction": [0, -1, 0],
+                        "irradiance": [irradiance, irradiance, irradiance]}],
+            "objects": [
+                {"shape": {"type": "box", "size": [100, 2, 100]},
+                 "transform": {"translate": [0, -1, 0]},
+                 "material": {"type": "dielectric", "eta": eta, "medium": {
+                     "sigma_t": [sigma, sigma, sigma], "albedo": [albedo, albedo, albedo]}}},
+                {"shape": {"type": "box", "size": [80, 0.5, 80]},
+                 "transform": {"translate": [0, -1.25, 0]},
+                 "material": {"type": "diffuse", "reflectance": [rho, rho, rho]}}
+            ],
+            "integrator": {"multiple_scatter": {"max_order": max_order}}
+        }))
+    };
+    let receiver = Receiver {
+        p: DVec3::new(0.3, -depth, 0.2),
+        normal: DVec3::Y,
+        geometric: DVec3::Y,
+        reflectance: Rgb::splat(rho),
+    };
+    let estimate = |scene: &Scene| {
+        let mut stats = RenderStats::default();
+        let values: Vec<f64> = (0..2048)
+            .map(|i| {
+                let mut sampler = Sampler::new(11, 0, 0, i);
+                onto_surface(scene, 0, &receiver, &mut sampler, &mut stats).x
+            })
+            .collect();
+        mean_and_error(&values)
+    };
+    let f0 = ((eta - 1.0) / (eta + 1.0)).powi(2);
+    let e_water = irradiance * (1.0 - f0);
+    let sigma_s = albedo * sigma;
+    let outer: f64 = gauss_legendre(48)
+        .into_iter()
+        .map(|(mu, w)| {
+            let inner = (-sigma * depth).exp() * (1.0 - (-sigma * depth * (1.0 - mu) / mu).exp())
+                / (sigma * (1.0 - mu));
+            w * mu * inner
+        })
+        .sum();
+    let e1 = 2.0 * PI * sigma_s / (4.0 * PI) * e_water * outer;
+    let first = rho * e1 / PI;
+    let (one, one_err) = estimate(&scene_up_to(2));
+    let (all, all_err) = estimate(&scene_up_to(64));
+    println!(
+        "first order {one:.6} ± {one_err:.1e} against {first:.6} ({:+.2} %); all orders \
+         {all:.6} ± {all_err:.1e}",
+        100.0 * (one / first - 1.0)
+    );
+    assert!(
+        (one - first).abs() < 4.0 * one_err + 1e-3 * first,
+        "first order"
+    );
+    assert!(
+        all > one + 4.0 * (one_err + all_err),
+        "higher orders add light"
+    );
+    let off = estimate(&scene_up_to(1));
+    assert_eq!(off, (0.0, 0.0), "max_order 1 turns it off");
 }
