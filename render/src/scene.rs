@@ -395,6 +395,11 @@ impl Scene {
             .across(&self.objects, o, p, normal, self.outer[o], self.scale)
     }
 
+    /// The objects whose surfaces coincide with part of object `o`'s (`contact`).
+    pub fn partners(&self, o: usize) -> &[usize] {
+        self.contacts.partners(o)
+    }
+
     /// Object `o`'s index relative to the medium around it (1 if it is not a dielectric).
     pub fn relative_eta(&self, o: usize) -> f64 {
         relative_eta(&self.objects, &self.outer, o)

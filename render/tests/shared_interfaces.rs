@@ -110,6 +110,13 @@ fn a_camera_path_crosses_a_shared_face_once_with_the_index_of_one_medium_over_th
         Some(2)
     );
     assert_eq!(scene.across(0, DVec3::new(0.3, 0.2, 0.0), DVec3::Z), None);
+    let plan = spindle_render::scatter::describe_plan(&scene);
+    assert!(
+        plan.iter().any(|l| l.starts_with(
+            "objects[0] and objects[1]: meet at a shared interface (relative index 0.8867)"
+        )),
+        "{plan:?}"
+    );
     let mut worst: f64 = 0.0;
     for degrees in [0.0f64, 25.0, 50.0, 70.0] {
         let theta = degrees.to_radians();

@@ -178,6 +178,7 @@ fn describe_placement(scene: &Scene) -> Vec<String> {
     }
     lines.extend(describe_receivers(scene));
     lines.extend(describe_nesting(scene));
+    lines.extend(describe_contacts(scene));
     for (j, light) in scene.lights().iter().enumerate() {
         if let Light::Directional {
             anchor, distance, ..
@@ -245,6 +246,22 @@ fn describe_nesting(scene: &Scene) -> Vec<String> {
             "objects[{o}]: nested in objects[{q}]'s medium (relative index {:.4}){faces}",
             scene.relative_eta(o)
         ));
+    }
+    lines
+}
+
+/// One line per pair of media whose surfaces coincide (`contact`): one interface between them.
+fn describe_contacts(scene: &Scene) -> Vec<String> {
+    let mut lines = Vec::new();
+    for o in 0..scene.objects().len() {
+        for &k in scene.partners(o).iter().filter(|&&k| k > o) {
+            lines.push(format!(
+                "objects[{o}] and objects[{k}]: meet at a shared interface (relative index \
+                 {:.4}); light reaching either medium through it crosses the other's surface \
+                 first (a second interface, blocked)",
+                scene.absolute_eta(Some(k)) / scene.absolute_eta(Some(o))
+            ));
+        }
     }
     lines
 }
