@@ -14,7 +14,7 @@ use std::path::Path;
 
 use anyhow::{Context, Result};
 use spindle_common::protocol::{DEFAULT_TILE_SIZE, JobInfo, SubmitJob, asset_hash, parse_label};
-use spindle_common::scene::SceneDescription;
+use spindle_common::scene::{FrameRange, SceneDescription};
 use spindle_common::scene_override::{Override, apply_overrides};
 
 use crate::api::Api;
@@ -32,6 +32,11 @@ pub struct SubmitArgs {
     /// camera (default: the first camera in the scene's node order).
     #[arg(long, value_name = "NAME")]
     pub camera: Option<String>,
+    /// The frame to render, of an animated scene: the job is the scene at that frame (default:
+    /// the scene's `animation.frames`, which must then be one frame). One frame a job for now:
+    /// `spindle render --frames FIRST-LAST` renders a sequence on this machine.
+    #[arg(long, value_name = "N", value_parser = crate::frames::parse_frames)]
+    pub frames: Option<FrameRange>,
     /// Wait for the job to finish, showing its progress.
     #[arg(long)]
     pub wait: bool,
@@ -99,6 +104,7 @@ pub async fn run(api: &Api, args: &SubmitArgs) -> Result<()> {
     };
     let edit = |scene: &mut SceneDescription| -> Result<()> {
         *scene = apply_overrides(scene, &args.set).map_err(|e| anyhow::anyhow!("--set {e}"))?;
+        *scene = scene.at_frame(one_frame(args.frames, scene)?);
         if let Some(spp) = args.spp {
             scene.film.spp = spp;
         }
@@ -128,6 +134,24 @@ pub async fn run(api: &Api, args: &SubmitArgs) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The one frame a job renders: `--frames N`, else the scene's `animation.frames` (frame 1
+/// without one); refused when that is more than one frame.
+fn one_frame(asked: Option<FrameRange>, scene: &SceneDescription) -> Result<u32> {
+    let (range, by) = match asked {
+        Some(range) => (range, "--frames"),
+        None => (scene.frame_range(), "the scene's animation.frames"),
+    };
+    if range.len() > 1 {
+        anyhow::bail!(
+            "{by} {}: a job renders one frame for now: submit one (--frames {}), or render the \
+             sequence on this machine with spindle render --frames",
+            crate::frames::describe(range),
+            range.start
+        );
+    }
+    Ok(range.start)
 }
 
 /// Whether [`submit_scene_file`] builds the scene before sending it.

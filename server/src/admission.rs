@@ -32,6 +32,13 @@ pub async fn admit(submit: &SubmitJob, limits: &Limits, assets: &AssetStore) -> 
             format!("scene.{e}")
         })
     })?;
+    if submit.scene.animation.is_some() {
+        return Err(Error::BadRequest(
+            "scene.animation: a job renders one still: send the scene at one frame (`spindle \
+             submit --frames N` resolves it, as `SceneDescription::at_frame` does)"
+                .into(),
+        ));
+    }
     let film = &submit.scene.film;
     if film.time_budget_s.is_some() && submit.tile_size > MAX_PASS_TILE_SIZE {
         return Err(Error::BadRequest(format!(
