@@ -55,6 +55,9 @@ pub struct RenderArgs {
     /// The frame this render is of, set by [`run`] for each frame of the sequence.
     #[arg(skip)]
     pub frame: Option<u32>,
+    /// Whether a glTF file's import warnings were printed already (by an earlier frame).
+    #[arg(skip)]
+    pub warned: bool,
     /// Local farm workers (default: one per two cores, at least two); 0 renders in this
     /// process without the farm.
     #[arg(long)]
@@ -258,6 +261,7 @@ pub async fn run(args: &RenderArgs) -> Result<()> {
         let mut one = args.clone();
         one.frame = Some(frame);
         one.output = args.output.as_ref().map(|o| frames::frame_path(o, frame));
+        one.warned = frame > range.start;
         render_frame_of(&one, &signals).await?;
     }
     Ok(())
@@ -344,7 +348,8 @@ pub fn refuse_unlit_media(
 async fn on_local_farm(args: &RenderArgs, workers: usize, signals: &Signals) -> Result<()> {
     let started = Instant::now();
     // Read and check the scene here first, so a mistake is reported before any farm starts.
-    let mut files = crate::scene_input::load(&args.scene, args.camera.as_deref(), !args.quiet)?;
+    let warn = !args.quiet && !args.warned;
+    let mut files = crate::scene_input::load(&args.scene, args.camera.as_deref(), warn)?;
     args.edit(&mut files.desc)?;
     read_meshes(&args.scene, &files.desc, &mut files.assets)?;
     let mut desc = files.desc.clone();
@@ -477,7 +482,8 @@ async fn on_local_farm(args: &RenderArgs, workers: usize, signals: &Signals) -> 
 /// `--workers 0`: in this process, with rayon over the current pool (`--threads`).
 fn in_process(args: &RenderArgs, signals: &Signals) -> Result<()> {
     let started = Instant::now();
-    let mut files = crate::scene_input::load(&args.scene, args.camera.as_deref(), !args.quiet)?;
+    let warn = !args.quiet && !args.warned;
+    let mut files = crate::scene_input::load(&args.scene, args.camera.as_deref(), warn)?;
     args.edit(&mut files.desc)?;
     read_meshes(&args.scene, &files.desc, &mut files.assets)?;
     let scene = Scene::build(&files.desc, &files.assets)
