@@ -118,10 +118,10 @@ async fn bad_input_gets_a_clear_4xx_and_leaves_existing_jobs_untouched() {
             "scene.film.width",
         ),
         (
-            "a scene with time (a job is one still)",
+            "a scene with time and no frame",
             with_scene(&|b| b["scene"]["animation"] = json!({"frames": {"start": 1, "end": 2}})),
             StatusCode::BAD_REQUEST,
-            "scene.animation: a job renders one still",
+            "frame: a scene with `animation` needs the frame the job renders",
         ),
         (
             "keys out of order",
