@@ -102,6 +102,7 @@ fn scene(light: desc::Light, size: u32, spp: u32, seed: u64) -> desc::SceneDescr
             },
             ..desc::Integrator::default()
         },
+        animation: None,
     }
 }
 

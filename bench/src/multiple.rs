@@ -75,6 +75,7 @@ fn scene(
             multiple_scatter: multiple,
             ..desc::Integrator::default()
         },
+        animation: None,
     }
 }
 

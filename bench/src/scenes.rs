@@ -160,6 +160,7 @@ impl Model {
                 },
                 ..desc::Integrator::default()
             },
+            animation: None,
         }
     }
 }

@@ -5,6 +5,7 @@ mod api;
 mod cancel;
 mod control;
 mod fetch;
+mod frames;
 mod interrupt;
 mod jobs;
 mod local_farm;

@@ -17,7 +17,7 @@ use anyhow::{Context, Result, anyhow, bail};
 use spindle_common::header::{self, RenderFacts};
 use spindle_common::image::Image;
 use spindle_common::protocol::{DEFAULT_TILE_SIZE, check_crop};
-use spindle_common::scene::SceneDescription;
+use spindle_common::scene::{FrameRange, SceneDescription};
 use spindle_common::scene_override::{Override, apply_overrides};
 use spindle_common::stats::RenderStats;
 use spindle_common::tile::TileRect;
@@ -26,12 +26,13 @@ use spindle_render::{Scene, provenance, render_pixel};
 
 use spindle_common::scene_files::read_meshes;
 
+use crate::frames;
 use crate::interrupt::{Interrupted, Signals, tiles_written};
 use crate::local_farm::{Outcome, SoFar};
 use crate::meter::{Meter, Show};
 
 /// `spindle render` options.
-#[derive(Debug, clap::Args)]
+#[derive(Debug, Clone, clap::Args)]
 pub struct RenderArgs {
     /// The scene file: spindle's JSON (OBJ paths in it are relative to it) or glTF 2.0
     /// (`.gltf`, `.glb`; converted as scenes/README.md, "glTF scenes", says).
@@ -42,8 +43,21 @@ pub struct RenderArgs {
     pub camera: Option<String>,
     /// The image to write: `OUT.exr` (OpenEXR, with the tone-mapped PNG preview beside it as
     /// `OUT.png`) or `OUT.png` (the preview alone). Optional with `--pixel`.
+    /// With several frames, the last run of `#` in the file name is the frame number,
+    /// zero-padded to its length (`shot.####.exr`).
     #[arg(short, long, required_unless_present = "pixel")]
     pub output: Option<PathBuf>,
+    /// The frames to render, `FIRST-LAST` or `N`, one after another, each the scene at that
+    /// frame (its `animation` resolved), each to its own `-o` file (default: the scene's
+    /// `animation.frames`, else frame 1).
+    #[arg(long, value_name = "FIRST-LAST", value_parser = crate::frames::parse_frames)]
+    pub frames: Option<FrameRange>,
+    /// The frame this render is of, set by [`run`] for each frame of the sequence.
+    #[arg(skip)]
+    pub frame: Option<u32>,
+    /// Whether a glTF file's import warnings were printed already (by an earlier frame).
+    #[arg(skip)]
+    pub warned: bool,
     /// Local farm workers (default: one per two cores, at least two); 0 renders in this
     /// process without the farm.
     #[arg(long)]
@@ -128,10 +142,14 @@ impl RenderArgs {
         }
     }
 
-    /// Applies `--set`, `--spp`, `--seed`, `--half` and `--no-time-budget` to a scene, and refuses
+    /// Applies `--set`, then resolves the frame being rendered (a still of the scene at it),
+    /// then applies `--spp`, `--seed`, `--half` and `--no-time-budget`, and refuses
     /// `--error-png` at 1 spp.
     fn edit(&self, scene: &mut SceneDescription) -> Result<()> {
         *scene = apply_overrides(scene, &self.set).map_err(|e| anyhow!("--set {e}"))?;
+        if let Some(frame) = self.frame {
+            *scene = scene.at_frame(frame);
+        }
         if let Some(spp) = self.spp {
             scene.film.spp = spp;
         }
@@ -220,22 +238,49 @@ fn threads_text(n: usize) -> String {
 }
 
 pub async fn run(args: &RenderArgs) -> Result<()> {
+    let (range, asked) = match args.frames {
+        Some(range) => (range, format!("--frames {}", frames::describe(range))),
+        None => {
+            // The scene's own range: read here once (quietly: each frame reads it again).
+            let mut files = crate::scene_input::load(&args.scene, args.camera.as_deref(), false)?;
+            files.desc =
+                apply_overrides(&files.desc, &args.set).map_err(|e| anyhow!("--set {e}"))?;
+            let range = files.desc.frame_range();
+            let asked = format!("the scene's animation.frames {}", frames::describe(range));
+            (range, asked)
+        }
+    };
     if let Some(output) = &args.output {
-        check_output(output)?;
+        frames::check_output("-o", output, range, &asked)?;
+        check_output(&frames::frame_path(output, range.start))?;
     }
+    let signals = Signals::listen()?;
+    // The frames one after another, each a still of the scene at that frame (on the local
+    // farm, a farm of its own each: the coordinator knows no frames yet).
+    for frame in range.frames() {
+        let mut one = args.clone();
+        one.frame = Some(frame);
+        one.output = args.output.as_ref().map(|o| frames::frame_path(o, frame));
+        one.warned = frame > range.start;
+        render_frame_of(&one, &signals).await?;
+    }
+    Ok(())
+}
+
+/// Renders one frame (`args.frame`) to `args.output`.
+async fn render_frame_of(args: &RenderArgs, signals: &Signals) -> Result<()> {
     let workers = args
         .workers
         .unwrap_or_else(crate::local_farm::default_workers);
-    let signals = Signals::listen()?;
     if workers == 0 {
         return tokio::task::block_in_place(|| {
-            on_threads(args.threads, || in_process(args, &signals))
+            on_threads(args.threads, || in_process(args, signals))
         })?;
     }
     if args.pixel.is_some() {
         bail!("--pixel renders in this process: add --workers 0");
     }
-    on_local_farm(args, workers, &signals).await
+    on_local_farm(args, workers, signals).await
 }
 
 /// What `-o` asks for, by its extension.
@@ -303,7 +348,8 @@ pub fn refuse_unlit_media(
 async fn on_local_farm(args: &RenderArgs, workers: usize, signals: &Signals) -> Result<()> {
     let started = Instant::now();
     // Read and check the scene here first, so a mistake is reported before any farm starts.
-    let mut files = crate::scene_input::load(&args.scene, args.camera.as_deref(), !args.quiet)?;
+    let warn = !args.quiet && !args.warned;
+    let mut files = crate::scene_input::load(&args.scene, args.camera.as_deref(), warn)?;
     args.edit(&mut files.desc)?;
     read_meshes(&args.scene, &files.desc, &mut files.assets)?;
     let mut desc = files.desc.clone();
@@ -436,7 +482,8 @@ async fn on_local_farm(args: &RenderArgs, workers: usize, signals: &Signals) -> 
 /// `--workers 0`: in this process, with rayon over the current pool (`--threads`).
 fn in_process(args: &RenderArgs, signals: &Signals) -> Result<()> {
     let started = Instant::now();
-    let mut files = crate::scene_input::load(&args.scene, args.camera.as_deref(), !args.quiet)?;
+    let warn = !args.quiet && !args.warned;
+    let mut files = crate::scene_input::load(&args.scene, args.camera.as_deref(), warn)?;
     args.edit(&mut files.desc)?;
     read_meshes(&args.scene, &files.desc, &mut files.assets)?;
     let scene = Scene::build(&files.desc, &files.assets)

@@ -14,7 +14,7 @@ use std::path::Path;
 
 use anyhow::{Context, Result};
 use spindle_common::protocol::{DEFAULT_TILE_SIZE, JobInfo, SubmitJob, asset_hash, parse_label};
-use spindle_common::scene::SceneDescription;
+use spindle_common::scene::{FrameRange, SceneDescription};
 use spindle_common::scene_override::{Override, apply_overrides};
 
 use crate::api::Api;
@@ -32,6 +32,12 @@ pub struct SubmitArgs {
     /// camera (default: the first camera in the scene's node order).
     #[arg(long, value_name = "NAME")]
     pub camera: Option<String>,
+    /// The frame to render, of an animated scene: the job renders the scene at that frame, made
+    /// by each worker (default: the scene's `animation.frames`, which must then be one frame).
+    /// One frame a job for now: `spindle render --frames FIRST-LAST` renders a sequence on
+    /// this machine.
+    #[arg(long, value_name = "N", value_parser = crate::frames::parse_frames)]
+    pub frames: Option<FrameRange>,
     /// Wait for the job to finish, showing its progress.
     #[arg(long)]
     pub wait: bool,
@@ -96,6 +102,7 @@ pub async fn run(api: &Api, args: &SubmitArgs) -> Result<()> {
             .or_else(|| whoami::username().ok())
             .filter(|s| !s.is_empty()),
         crop: args.crop,
+        frames: args.frames,
     };
     let edit = |scene: &mut SceneDescription| -> Result<()> {
         *scene = apply_overrides(scene, &args.set).map_err(|e| anyhow::anyhow!("--set {e}"))?;
@@ -130,6 +137,24 @@ pub async fn run(api: &Api, args: &SubmitArgs) -> Result<()> {
     Ok(())
 }
 
+/// The one frame a job renders: `--frames N`, else the scene's `animation.frames` (frame 1
+/// without one); refused when that is more than one frame.
+fn one_frame(asked: Option<FrameRange>, scene: &SceneDescription) -> Result<u32> {
+    let (range, by) = match asked {
+        Some(range) => (range, "--frames"),
+        None => (scene.frame_range(), "the scene's animation.frames"),
+    };
+    if range.len() > 1 {
+        anyhow::bail!(
+            "{by} {}: a job renders one frame for now: submit one (--frames {}), or render the \
+             sequence on this machine with spindle render --frames",
+            crate::frames::describe(range),
+            range.start
+        );
+    }
+    Ok(range.start)
+}
+
 /// Whether [`submit_scene_file`] builds the scene before sending it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Check {
@@ -150,6 +175,9 @@ pub struct JobOptions {
     pub submitter: Option<String>,
     /// Only this window of the film ([`SubmitJob::crop`]).
     pub crop: Option<spindle_common::tile::TileRect>,
+    /// The frame asked for (`--frames N`): the job renders it ([`SubmitJob::frame`]); absent,
+    /// the scene's own when it has `animation`.
+    pub frames: Option<FrameRange>,
 }
 
 /// A change made to a scene before it is sent (the local farm's `--spp`, `--seed`, `--set`),
@@ -181,8 +209,18 @@ pub async fn submit_scene_file(
         spindle_common::protocol::check_crop(crop, film.width, film.height)
             .map_err(|e| anyhow::anyhow!("--{e}"))?;
     }
+    // The frame the job renders; the workers make its still (`JobSpec::still`).
+    let frame = if files.desc.animation.is_some() || options.frames.is_some() {
+        Some(one_frame(options.frames, &files.desc)?)
+    } else {
+        None
+    };
     if let Check::Build { allow_blocked } = check {
-        let scene = spindle_render::Scene::build(&files.desc, &files.assets)
+        let still = match frame {
+            Some(frame) => files.desc.at_frame(frame),
+            None => files.desc.clone(),
+        };
+        let scene = spindle_render::Scene::build(&still, &files.assets)
             .with_context(|| format!("invalid scene {}", scene_path.display()))?;
         crate::render::refuse_unlit_media(&scene, scene_path, allow_blocked)?;
     }
@@ -224,6 +262,7 @@ pub async fn submit_scene_file(
         name: options.name.clone(),
         submitter: options.submitter.clone(),
         crop: options.crop,
+        frame,
     };
     let key = random_hex()?;
     api.submit(&job, &key)

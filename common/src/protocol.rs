@@ -154,6 +154,12 @@ pub struct SubmitJob {
     /// film.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub crop: Option<TileRect>,
+    /// The frame of the scene's `animation` the job renders: each worker makes the still
+    /// with [`SceneDescription::at_frame`] (`spindle submit --frames N`). Required for a scene
+    /// with `animation`; 0 … 999999.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(maximum = 999999)]
+    pub frame: Option<u32>,
 }
 
 /// Checks a crop window against the film it cuts: at least one pixel, and inside the
@@ -764,9 +770,21 @@ pub struct JobSpec {
     /// Only this window of the film is rendered ([`SubmitJob::crop`]); absent: the whole film.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub crop: Option<TileRect>,
+    /// The frame of the scene's `animation` rendered ([`SubmitJob::frame`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame: Option<u32>,
 }
 
 impl JobSpec {
+    /// The still the job renders: the scene at its frame ([`SceneDescription::at_frame`], the
+    /// one function every process that renders a frame calls), or the scene itself.
+    pub fn still(&self) -> SceneDescription {
+        match self.frame {
+            Some(frame) => self.scene.at_frame(frame),
+            None => self.scene.clone(),
+        }
+    }
+
     /// The rectangle of the film the job renders: the crop, or the whole film at (0, 0).
     pub fn window(&self) -> TileRect {
         self.crop.unwrap_or(TileRect {

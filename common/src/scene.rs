@@ -82,6 +82,248 @@ mod triple_schemas {
 }
 use triple_schemas::{ColorSchema, PointSchema, UnitColorSchema, VectorSchema};
 
+/// A rotation as a quaternion `[x, y, z, w]` (glTF's order), normalised where it is used; the
+/// zero quaternion is refused.
+pub type Quat = [f64; 4];
+
+/// The API document's shapes of the animation tracks, which are generic over their value
+/// ([`Track`]) and so named here, as the triples are above.
+mod track_schemas {
+    use std::borrow::Cow;
+
+    use utoipa::openapi::RefOr;
+    use utoipa::openapi::schema::{
+        AdditionalProperties, ArrayBuilder, ObjectBuilder, Schema, SchemaType, Type,
+    };
+
+    use crate::validate::{MAX_COORDINATE, MAX_FRAME, MAX_KEYS};
+
+    fn number(minimum: Option<f64>, maximum: Option<f64>) -> ObjectBuilder {
+        ObjectBuilder::new()
+            .schema_type(Type::Number)
+            .minimum(minimum)
+            .maximum(maximum)
+    }
+
+    fn numbers(n: usize, minimum: Option<f64>, maximum: Option<f64>) -> RefOr<Schema> {
+        ArrayBuilder::new()
+            .items(number(minimum, maximum))
+            .min_items(Some(n))
+            .max_items(Some(n))
+            .into()
+    }
+
+    fn track(description: &str, value: RefOr<Schema>) -> RefOr<Schema> {
+        let key = ObjectBuilder::new()
+            .property(
+                "frame",
+                number(Some(-f64::from(MAX_FRAME)), Some(f64::from(MAX_FRAME))),
+            )
+            .required("frame")
+            .property("value", value)
+            .required("value")
+            .additional_properties(Some(AdditionalProperties::FreeForm(false)));
+        let interpolation = ObjectBuilder::new()
+            .schema_type(SchemaType::new(Type::String))
+            .enum_values(Some(["linear", "smooth", "step"]));
+        ObjectBuilder::new()
+            .property("interpolation", interpolation)
+            .property(
+                "keys",
+                ArrayBuilder::new()
+                    .items(key)
+                    .min_items(Some(1))
+                    .max_items(Some(MAX_KEYS)),
+            )
+            .required("keys")
+            .additional_properties(Some(AdditionalProperties::FreeForm(false)))
+            .description(Some(description))
+            .into()
+    }
+
+    macro_rules! track_schema {
+        ($ty:ident, $name:literal, $description:literal, $value:expr) => {
+            pub struct $ty;
+            impl utoipa::PartialSchema for $ty {
+                fn schema() -> RefOr<Schema> {
+                    track($description, $value)
+                }
+            }
+            impl utoipa::ToSchema for $ty {
+                fn name() -> Cow<'static, str> {
+                    Cow::Borrowed($name)
+                }
+            }
+        };
+    }
+
+    track_schema!(
+        PointTrackSchema,
+        "PointTrack",
+        "Keyframed positions [x, y, z], each coordinate within the scene's extent.",
+        numbers(3, Some(-MAX_COORDINATE), Some(MAX_COORDINATE))
+    );
+    track_schema!(
+        VectorTrackSchema,
+        "VectorTrack",
+        "Keyframed vectors [x, y, z], finite.",
+        numbers(3, None, None)
+    );
+    track_schema!(
+        RotationTrackSchema,
+        "RotationTrack",
+        "Keyframed rotations, quaternions [x, y, z, w] (not zero; normalised where used).",
+        numbers(4, None, None)
+    );
+    track_schema!(
+        AngleTrackSchema,
+        "AngleTrack",
+        "Keyframed angles in degrees, in (0, 180).",
+        number(Some(0.0), Some(180.0)).into()
+    );
+}
+use track_schemas::{AngleTrackSchema, PointTrackSchema, RotationTrackSchema, VectorTrackSchema};
+
+/// Time in a scene: the frames to render, the frame rate, and keyframed values of the camera,
+/// the objects and the lights. A frame is a pure function of (scene, frame):
+/// [`SceneDescription::at_frame`]. Frames before a track's first key or after its last hold
+/// that key's value (Blender's constant extrapolation).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Animation {
+    /// Frames per second, for tools that play the frames back (and glTF's seconds); the frames
+    /// rendered do not depend on it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(exclusive_minimum = 0.0, maximum = 1000.0)]
+    pub frame_rate: Option<f64>,
+    /// The frames `spindle render` renders when `--frames` does not say (default: frame 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frames: Option<FrameRange>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera: Option<CameraAnimation>,
+    /// At most one entry an object.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub objects: Vec<ObjectAnimation>,
+    /// At most one entry a light.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub lights: Vec<LightAnimation>,
+}
+
+/// The frames `start` to `end`, both included.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FrameRange {
+    #[schema(maximum = 999999)]
+    pub start: u32,
+    #[schema(maximum = 999999)]
+    pub end: u32,
+}
+
+impl FrameRange {
+    /// The frames, in order.
+    pub fn frames(&self) -> std::ops::RangeInclusive<u32> {
+        self.start..=self.end
+    }
+
+    /// How many frames.
+    pub fn len(&self) -> u64 {
+        u64::from(self.end.saturating_sub(self.start)) + 1
+    }
+
+    /// Never: a range holds its start.
+    pub fn is_empty(&self) -> bool {
+        false
+    }
+}
+
+/// How a track's value goes from one key to the next.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Interpolation {
+    /// Straight between keys; rotations by spherical linear interpolation (slerp), the
+    /// shorter way round (glTF's LINEAR).
+    #[default]
+    Linear,
+    /// A cubic Hermite curve through the keys whose slope at a key is the chord of its two
+    /// neighbours, (next − previous) / (their frame difference) (Catmull–Rom's, for evenly spaced
+    /// keys), and zero at the first and last key (an ease in and out, as Blender's default
+    /// auto-clamped Bézier handles); rotations component by component on the quaternions, each
+    /// key on the side of the previous one, then normalised (as Blender's quaternion curves).
+    Smooth,
+    /// The key's value until the next key (glTF's STEP, Blender's constant).
+    Step,
+}
+
+/// A keyframed value: `keys` in increasing frame order, one key a frame at most.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Track<V> {
+    #[serde(default)]
+    pub interpolation: Interpolation,
+    pub keys: Vec<Key<V>>,
+}
+
+/// A track's value at a frame (a fraction of a frame allowed: glTF's keys are in seconds).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Key<V> {
+    pub frame: f64,
+    pub value: V,
+}
+
+/// The camera's keyframed fields; a track replaces the field it names at every frame.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CameraAnimation {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(value_type = Option<PointTrackSchema>)]
+    pub position: Option<Track<Vec3>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(value_type = Option<PointTrackSchema>)]
+    pub look_at: Option<Track<Vec3>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(value_type = Option<VectorTrackSchema>)]
+    pub up: Option<Track<Vec3>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(value_type = Option<AngleTrackSchema>)]
+    pub fov_y: Option<Track<f64>>,
+}
+
+/// An object's keyframed placement: `objects[object]`'s `transform.translate`, its rotation
+/// (replacing `transform.rotate_deg`) and `transform.scale`; a track replaces its field at
+/// every frame, so the field itself must be left at its default.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectAnimation {
+    /// The index of the object in `objects`.
+    pub object: usize,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(value_type = Option<PointTrackSchema>)]
+    pub translate: Option<Track<Vec3>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(value_type = Option<RotationTrackSchema>)]
+    pub rotation: Option<Track<Quat>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(value_type = Option<VectorTrackSchema>)]
+    pub scale: Option<Track<Vec3>>,
+}
+
+/// A light's keyframed placement: `position` moves a point light's `position`, a sphere
+/// light's `center` or a quad light's `corner` (its edges kept); `direction` turns a
+/// directional light.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct LightAnimation {
+    /// The index of the light in `lights`.
+    pub light: usize,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(value_type = Option<PointTrackSchema>)]
+    pub position: Option<Track<Vec3>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schema(value_type = Option<VectorTrackSchema>)]
+    pub direction: Option<Track<Vec3>>,
+}
+
 /// A whole scene.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
@@ -98,6 +340,11 @@ pub struct SceneDescription {
     pub background: Rgb,
     #[serde(default)]
     pub integrator: Integrator,
+    /// Time: keyframed values and the frames to render. `None` (or absent): a still, the
+    /// format and the bits of a scene without time. [`SceneDescription::at_frame`] resolves a
+    /// frame into a scene without it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub animation: Option<Animation>,
 }
 
 /// Pinhole camera. Image x goes right, y goes down (row 0 at the top).

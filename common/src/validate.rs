@@ -14,6 +14,9 @@ use crate::scene::{
 };
 use crate::transform::Affine;
 
+mod animation;
+pub use animation::MAX_FRAME_RATE;
+
 /// The largest image side accepted, in pixels (a sanity cap: 16384² pixels of three RGB f32
 /// layers is already 9 GiB).
 pub const MAX_IMAGE_SIDE: u32 = 16384;
@@ -27,6 +30,12 @@ pub const MAX_TIME_BUDGET_S: f64 = 7.0 * 24.0 * 3600.0;
 /// scene, so a scene must fit in a range where both stay meaningful; ±10⁶ leaves f32 boxes
 /// resolving 0.1 at the edge and f64 solves 10 digits to spare.
 pub const MAX_COORDINATE: f64 = 1e6;
+
+/// The largest frame number: a frame range, and a key's frame in absolute value (six digits,
+/// the `######` of an output path).
+pub const MAX_FRAME: u32 = 999_999;
+/// The most keys of one animation track.
+pub const MAX_KEYS: usize = 100_000;
 
 /// The most corners one OBJ face (`f v1 v2 … vn`) may have. A face is triangulated as a polygon,
 /// whose cost grows faster than its corners (one face line of 10,000 corners took 9.6 s to
@@ -113,7 +122,11 @@ impl SceneDescription {
             check_object(&format!("objects[{i}]"), object)?;
         }
         check_rgb_at_least("background", &self.background, 0.0)?;
-        check_integrator("integrator", &self.integrator)
+        check_integrator("integrator", &self.integrator)?;
+        match &self.animation {
+            Some(time) => animation::check("animation", time, self),
+            None => Ok(()),
+        }
     }
 }
 

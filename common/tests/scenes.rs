@@ -47,6 +47,7 @@ fn every_example_scene_loads_and_validates() {
             "caustic.json",
             "glass-sphere.json",
             "jade.json",
+            "orbit.json",
             "pool-full.json",
             "pool.json",
             "tank.json",

@@ -127,3 +127,37 @@ fn scene_schema_bounds_are_the_validators() {
         |v, x| v["integrator"] = json!({"multiple_scatter": {"paths": x as u64}}),
     );
 }
+
+#[test]
+fn animation_schema_bounds_are_the_validators() {
+    use spindle_common::validate::{MAX_FRAME, MAX_FRAME_RATE};
+    let s = components();
+    let max = |name: &str, field: &str| number(property(&s, name, field), "maximum");
+    assert_eq!(max("FrameRange", "start"), f64::from(MAX_FRAME));
+    assert_eq!(max("FrameRange", "end"), f64::from(MAX_FRAME));
+    assert_eq!(max("Animation", "frame_rate"), MAX_FRAME_RATE);
+    accepts_bound_refuses_past(
+        "animation.frames.end",
+        f64::from(MAX_FRAME),
+        f64::from(MAX_FRAME) + 1.0,
+        |v, x| v["animation"] = json!({"frames": {"start": 0, "end": x as u64}}),
+    );
+    accepts_bound_refuses_past(
+        "animation.frame_rate",
+        MAX_FRAME_RATE,
+        MAX_FRAME_RATE * 1.001,
+        |v, x| v["animation"] = json!({"frame_rate": x}),
+    );
+    // A key's frame: within ±MAX_FRAME, as the tracks' documents say.
+    let doc = serde_json::to_string(&s).unwrap();
+    assert!(
+        doc.contains(&format!("\"maximum\":{MAX_FRAME}")),
+        "a key frame's maximum"
+    );
+    accepts_bound_refuses_past(
+        "animation.camera.fov_y.keys[0].frame",
+        f64::from(MAX_FRAME),
+        f64::from(MAX_FRAME) + 0.5,
+        |v, x| v["animation"] = json!({"camera": {"fov_y": {"keys": [{"frame": x, "value": 30}]}}}),
+    );
+}

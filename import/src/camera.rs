@@ -6,8 +6,8 @@
 //! `look_at` is one unit along that axis, `up` the node's +y, and `fov_y` the perspective's
 //! `yfov` in degrees. Orthographic cameras are refused: spindle's camera is a pinhole.
 
-use glam::DVec3;
-use spindle_common::scene::Camera;
+use glam::{DMat4, DVec3};
+use spindle_common::scene::{Camera, Vec3};
 
 use crate::error::ImportError;
 use crate::hierarchy::PlacedNode;
@@ -125,24 +125,34 @@ pub fn choose(
             format!("must be > 0, got {a}"),
         ));
     }
-    let world = placed.world;
-    let position = world.transform_point3(DVec3::ZERO);
     let node = format!("nodes[{}]", placed.node.index());
-    let forward = world
-        .transform_vector3(DVec3::NEG_Z)
-        .try_normalize()
-        .ok_or_else(|| {
-            ImportError::new(&node, "its transform collapses the camera's view axis (−z)")
-        })?;
-    let up = world.transform_vector3(DVec3::Y);
+    let [position, look_at, up] = pose(&placed.world, &node)?;
     Ok(Chosen {
         camera: Camera {
-            position: position.to_array(),
-            look_at: (position + forward).to_array(),
-            up: up.to_array(),
+            position,
+            look_at,
+            up,
             fov_y,
         },
         aspect,
         node: placed.node.index(),
     })
+}
+
+/// `[position, look_at, up]` of a camera on a node whose world matrix is `world`: the node's
+/// origin, one unit along its −z axis, its +y axis. `node` names it in errors.
+pub fn pose(world: &DMat4, node: &str) -> Result<[Vec3; 3], ImportError> {
+    let position = world.transform_point3(DVec3::ZERO);
+    let forward = world
+        .transform_vector3(DVec3::NEG_Z)
+        .try_normalize()
+        .ok_or_else(|| {
+            ImportError::new(node, "its transform collapses the camera's view axis (−z)")
+        })?;
+    let up = world.transform_vector3(DVec3::Y);
+    Ok([
+        position.to_array(),
+        (position + forward).to_array(),
+        up.to_array(),
+    ])
 }

@@ -13,7 +13,11 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use spindle_common::scene::{Film, Integrator, Material, Object, SceneDescription, Shape};
+use glam::{DMat4, DVec3};
+use spindle_common::scene::{
+    Animation, CameraAnimation, Film, Integrator, Light, LightAnimation, Material, Object,
+    ObjectAnimation, SceneDescription, Shape,
+};
 use spindle_common::scene_files::SceneFiles;
 
 use crate::error::ImportError;
@@ -104,12 +108,6 @@ fn convert(
             ignored.add(ignored::EXTENSIONS, extension);
         }
     }
-    for animation in document.animations() {
-        ignored.add(
-            ignored::ANIMATIONS,
-            labelled("animations", animation.index(), animation.name()),
-        );
-    }
     for texture in document.textures() {
         ignored.add(
             ignored::TEXTURES,
@@ -130,6 +128,24 @@ fn convert(
         &mut ignored,
     )?;
     let buffers = crate::buffers::load_buffers(document, gltf.blob.as_deref(), dir)?;
+    let animations = crate::animation::read(document, &buffers, &mut ignored)?;
+    let moves = |node: usize| animations.as_ref().filter(|a| a.moves(node));
+    let mut time = Animation {
+        frame_rate: Some(crate::animation::FRAME_RATE),
+        frames: animations.as_ref().map(|a| a.frames),
+        camera: None,
+        objects: Vec::new(),
+        lights: Vec::new(),
+    };
+    if let Some(a) = moves(chosen.node) {
+        let [position, look_at, up] = a.camera(document, chosen.node)?;
+        time.camera = Some(CameraAnimation {
+            position: Some(position),
+            look_at: Some(look_at),
+            up: Some(up),
+            fov_y: None,
+        });
+    }
 
     let mut notes = Vec::new();
     let (width, height) = match chosen.aspect {
@@ -167,6 +183,20 @@ fn convert(
                     if light.range().is_some() {
                         ignored.add(ignored::LIGHT_RANGES, &origin);
                     }
+                    if let Some(a) = moves(p.node.index()) {
+                        let track = a.vectors(document, p.node.index(), |world| match &l {
+                            Light::Directional { .. } => {
+                                world.transform_vector3(DVec3::NEG_Z).to_array()
+                            }
+                            _ => world.transform_point3(DVec3::ZERO).to_array(),
+                        })?;
+                        let directional = matches!(l, Light::Directional { .. });
+                        time.lights.push(LightAnimation {
+                            light: lights.len(),
+                            position: (!directional).then(|| track.clone()),
+                            direction: directional.then_some(track),
+                        });
+                    }
                     lights.push(l);
                     light_origins.push(origin);
                 }
@@ -191,8 +221,15 @@ fn convert(
                     m
                 }
             };
+            // An animated node's vertices stay in its own space; its tracks place them.
+            let animated = moves(p.node.index());
+            let placed_by = if animated.is_some() {
+                DMat4::IDENTITY
+            } else {
+                p.world
+            };
             let Some(world) =
-                crate::mesh::world_triangles(&primitive, &buffers, &p.world, &element)?
+                crate::mesh::world_triangles(&primitive, &buffers, &placed_by, &element)?
             else {
                 ignored.add(ignored::NOT_TRIANGLES, &element);
                 continue;
@@ -226,6 +263,15 @@ fn convert(
                 transform: Default::default(),
                 material,
             });
+            if let Some(a) = animated {
+                let (translate, rotation, scale) = a.placement(document, p.node.index())?;
+                time.objects.push(ObjectAnimation {
+                    object: objects.len() - 1,
+                    translate: Some(translate),
+                    rotation: Some(rotation),
+                    scale: Some(scale),
+                });
+            }
             object_origins.push(origin);
         }
     }
@@ -245,6 +291,7 @@ fn convert(
         objects,
         background: [0.0; 3],
         integrator: Integrator::default(),
+        animation: animations.is_some().then_some(time),
     };
     desc.validate().map_err(|e| {
         let origin = origin_of(&e.path, chosen.node, &object_origins, &light_origins);

@@ -53,6 +53,27 @@ pub fn walk<'a>(scene: &gltf::Scene<'a>) -> Result<Vec<PlacedNode<'a>>, ImportEr
 /// A node's local matrix: its `matrix`, or `T · R · S` of its `translation`, `rotation` (a unit
 /// quaternion; normalised here in f64) and `scale`.
 pub fn local_matrix(node: &gltf::Node, element: &str) -> Result<DMat4, ImportError> {
+    if let gltf::scene::Transform::Matrix { matrix } = node.transform() {
+        if !matrix.as_flattened().iter().all(|v| v.is_finite()) {
+            return Err(ImportError::new(
+                format!("{element}.matrix"),
+                "must be finite",
+            ));
+        }
+        return Ok(DMat4::from_cols_array_2d(&matrix.map(|c| c.map(f64::from))));
+    }
+    let (translation, rotation, scale) = local_parts(node, element)?;
+    Ok(DMat4::from_scale_rotation_translation(
+        scale,
+        rotation,
+        translation,
+    ))
+}
+
+/// A node's `translation`, `rotation` (normalised in f64) and `scale`, checked (those a
+/// `matrix` decomposes into, for a node that gives one).
+pub fn local_parts(node: &gltf::Node, element: &str) -> Result<(DVec3, DQuat, DVec3), ImportError> {
+    let (translation, rotation, scale) = node.transform().decomposed();
     let finite = |values: &[f32], field: &str| {
         if values.iter().all(|v| v.is_finite()) {
             Ok(())
@@ -63,33 +84,20 @@ pub fn local_matrix(node: &gltf::Node, element: &str) -> Result<DMat4, ImportErr
             ))
         }
     };
-    match node.transform() {
-        gltf::scene::Transform::Matrix { matrix } => {
-            finite(matrix.as_flattened(), "matrix")?;
-            Ok(DMat4::from_cols_array_2d(&matrix.map(|c| c.map(f64::from))))
-        }
-        gltf::scene::Transform::Decomposed {
-            translation,
-            rotation,
-            scale,
-        } => {
-            finite(&translation, "translation")?;
-            finite(&rotation, "rotation")?;
-            finite(&scale, "scale")?;
-            let [x, y, z, w] = rotation.map(f64::from);
-            let rotation = DQuat::from_xyzw(x, y, z, w);
-            if rotation.length() < 1e-6 {
-                return Err(ImportError::new(
-                    format!("{element}.rotation"),
-                    format!("must be a unit quaternion, got [{x}, {y}, {z}, {w}]"),
-                ));
-            }
-            let rotation = rotation.normalize();
-            Ok(DMat4::from_scale_rotation_translation(
-                DVec3::from_array(scale.map(f64::from)),
-                rotation,
-                DVec3::from_array(translation.map(f64::from)),
-            ))
-        }
+    finite(&translation, "translation")?;
+    finite(&rotation, "rotation")?;
+    finite(&scale, "scale")?;
+    let [x, y, z, w] = rotation.map(f64::from);
+    let rotation = DQuat::from_xyzw(x, y, z, w);
+    if rotation.length() < 1e-6 {
+        return Err(ImportError::new(
+            format!("{element}.rotation"),
+            format!("must be a unit quaternion, got [{x}, {y}, {z}, {w}]"),
+        ));
     }
+    Ok((
+        DVec3::from_array(translation.map(f64::from)),
+        rotation.normalize(),
+        DVec3::from_array(scale.map(f64::from)),
+    ))
 }

@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 
 /// Elements the import left out, by kind. A kind is a short phrase that says what happens
-/// instead ("animations (the rest pose is rendered)").
+/// instead ("skins (the meshes are rendered unskinned, placed by their nodes)").
 #[derive(Debug, Default, Clone)]
 pub struct Ignored {
     kinds: BTreeMap<&'static str, Vec<String>>,
@@ -14,8 +14,6 @@ pub struct Ignored {
 /// Elements named per warning before the rest are counted.
 pub const MAX_NAMED: usize = 12;
 
-pub const ANIMATIONS: &str =
-    "animations (spindle scenes have no time yet: the nodes' rest transforms are rendered)";
 pub const SKINS: &str = "skins (the meshes are rendered unskinned, placed by their nodes)";
 pub const MORPH_TARGETS: &str = "morph targets (the base shapes are rendered)";
 pub const TEXTURES: &str = "textures (materials use their constant factors)";

@@ -7,6 +7,7 @@
 //! ([`import_gltf`]). `scenes/README.md` ("glTF scenes") says what maps to what.
 #![forbid(unsafe_code)]
 
+pub mod animation;
 pub mod buffers;
 pub mod camera;
 pub mod error;

@@ -187,7 +187,6 @@ fn check_accessor(
     element: &str,
     vector: bool,
 ) -> Result<(), ImportError> {
-    let name = format!("accessors[{}]", accessor.index());
     let fits = if vector {
         accessor.dimensions() == Dimensions::Vec3 && accessor.data_type() == DataType::F32
     } else {
@@ -197,12 +196,25 @@ fn check_accessor(
                 DataType::U8 | DataType::U16 | DataType::U32
             )
     };
+    let wanted = if vector {
+        "VEC3 of FLOAT"
+    } else {
+        "SCALAR of UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT"
+    };
+    check_accessor_as(accessor, what, element, fits, wanted)
+}
+
+/// Checks that `accessor` (`fits`: of the type `wanted` names) can be read: at least one
+/// element, not sparse, every element within its buffer view and the view within its buffer.
+pub(crate) fn check_accessor_as(
+    accessor: &gltf::Accessor,
+    what: &str,
+    element: &str,
+    fits: bool,
+    wanted: &str,
+) -> Result<(), ImportError> {
+    let name = format!("accessors[{}]", accessor.index());
     if !fits {
-        let wanted = if vector {
-            "VEC3 of FLOAT"
-        } else {
-            "SCALAR of UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT"
-        };
         return Err(ImportError::new(
             name,
             format!(

@@ -17,7 +17,7 @@ use std::collections::HashMap;
 use spindle_common::passes::MAX_PASS_TILE_SIZE;
 use spindle_common::protocol::{SubmitJob, check_crop, is_hash};
 use spindle_common::scene::Shape;
-use spindle_common::validate::surely_within_extent;
+use spindle_common::validate::{MAX_FRAME, surely_within_extent};
 
 use crate::assets::AssetStore;
 use crate::error::Error;
@@ -32,6 +32,21 @@ pub async fn admit(submit: &SubmitJob, limits: &Limits, assets: &AssetStore) -> 
             format!("scene.{e}")
         })
     })?;
+    match (&submit.scene.animation, submit.frame) {
+        (Some(_), None) => {
+            return Err(Error::BadRequest(
+                "frame: a scene with `animation` needs the frame the job renders (`spindle \
+                 submit --frames N` sends it)"
+                    .into(),
+            ));
+        }
+        (_, Some(frame)) if frame > MAX_FRAME => {
+            return Err(Error::BadRequest(format!(
+                "frame: must be at most {MAX_FRAME}, got {frame}"
+            )));
+        }
+        _ => {}
+    }
     let film = &submit.scene.film;
     if film.time_budget_s.is_some() && submit.tile_size > MAX_PASS_TILE_SIZE {
         return Err(Error::BadRequest(format!(
@@ -74,7 +89,12 @@ async fn obj_triangles(
     assets: &AssetStore,
 ) -> Result<HashMap<String, u64>, Error> {
     let mut counts = HashMap::new();
-    for (i, object) in submit.scene.objects.iter().enumerate() {
+    // Placed as the workers place them: at the job's frame.
+    let still = match submit.frame {
+        Some(frame) => submit.scene.at_frame(frame),
+        None => submit.scene.clone(),
+    };
+    for (i, object) in still.objects.iter().enumerate() {
         if let Shape::Obj { path, .. } = &object.shape {
             let Some(hash) = submit.assets.get(path) else {
                 return Err(Error::BadRequest(format!(

@@ -104,10 +104,12 @@ pub fn write_final(
     if !damaged.is_empty() {
         return Err(AssembleError::Damaged(damaged));
     }
+    // The header describes the still rendered (its camera at the job's frame).
+    let still = spec.still();
     spindle_common::header::describe(
         &mut image,
         &RenderFacts {
-            scene: &spec.scene,
+            scene: &still,
             window: spec.window(),
             stats: facts.stats,
             provenance: facts.provenance,

@@ -118,6 +118,21 @@ async fn bad_input_gets_a_clear_4xx_and_leaves_existing_jobs_untouched() {
             "scene.film.width",
         ),
         (
+            "a scene with time and no frame",
+            with_scene(&|b| b["scene"]["animation"] = json!({"frames": {"start": 1, "end": 2}})),
+            StatusCode::BAD_REQUEST,
+            "frame: a scene with `animation` needs the frame the job renders",
+        ),
+        (
+            "keys out of order",
+            with_scene(&|b| {
+                b["scene"]["animation"] = json!({"camera": {"fov_y": {"keys": [
+                    {"frame": 2, "value": 30}, {"frame": 1, "value": 40}]}}})
+            }),
+            StatusCode::BAD_REQUEST,
+            "scene.animation.camera.fov_y.keys[1].frame: must come after keys[0].frame (2)",
+        ),
+        (
             "invalid medium",
             with_scene(&|b| {
                 b["scene"]["objects"][0]["material"]["medium"]["sigma_t"] = json!([1, -1, 1])

@@ -447,6 +447,7 @@ impl Farm {
             name: None,
             submitter: None,
             crop: None,
+            frame: None,
         };
         let resp = self
             .client(reqwest::Method::POST, "/v1/jobs")

@@ -146,7 +146,8 @@ impl SceneCache {
             end => LoadError::from(end),
         })?;
         let assets = self.download_assets(job_id, &spec.assets, stop).await?;
-        let desc = spec.scene;
+        // The still of the job's frame, by the one function every renderer of a frame calls.
+        let desc = spec.still();
         let pool = self.pool.clone();
         let build = move |_: &detached::Interrupt| {
             pool.install(|| {
@@ -274,6 +275,7 @@ mod tests {
             assets: BTreeMap::from([("tri.obj".to_string(), hash.to_string())]),
             tile_size: 4,
             crop: None,
+            frame: None,
         };
         serde_json::to_vec(&spec).unwrap()
     }

@@ -51,6 +51,7 @@ impl Script {
             assets: Default::default(),
             tile_size: width.max(height),
             crop: None,
+            frame: None,
         };
         self.specs
             .lock()

@@ -57,6 +57,7 @@ impl NewJob {
                 assets: submit.assets,
                 tile_size: submit.tile_size,
                 crop: submit.crop,
+                frame: submit.frame,
             },
             priority: submit.priority,
             requires: submit.requires,

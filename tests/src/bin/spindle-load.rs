@@ -133,6 +133,7 @@ fn workload(size: u32, tile: u32, scatter_spp: Option<u32>) -> Result<Workload> 
             name: Some("load".into()),
             submitter: None,
             crop: None,
+            frame: None,
         },
         assets: assets.into_iter().collect(),
         tiles,
