@@ -3,6 +3,7 @@
 //! renderer, the coordinator, the worker process and the `spindle` command have in common.
 #![forbid(unsafe_code)]
 
+pub mod aov;
 pub mod atomic_write;
 pub mod camera_matrices;
 pub mod header;

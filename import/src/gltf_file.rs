@@ -240,6 +240,7 @@ fn convert(
             target_error: None,
             time_budget_s: None,
             half: false,
+            passes: Vec::new(),
         },
         lights,
         objects,

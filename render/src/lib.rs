@@ -10,6 +10,7 @@
 pub mod bvh;
 pub mod camera;
 pub mod containment;
+pub mod first_hit;
 pub mod flat_face;
 pub mod frame;
 pub mod fresnel;
@@ -42,6 +43,7 @@ pub use rgb::Rgb;
 pub use scene::{Assets, Scene};
 pub use spindle_common::validate::SceneError;
 pub use tile::{
-    PixelProgress, PixelValue, pixels_to_tile, render_pixel, render_tile, render_tile_with_progress,
+    PixelProgress, PixelValue, film_passes, pixels_to_tile, render_pixel, render_tile,
+    render_tile_with_progress,
 };
 pub use tile_pass::{PassError, render_tile_pass};

@@ -58,7 +58,8 @@ pub fn frame(
 ) -> anyhow::Result<(Image, Vec<(u32, String)>)> {
     let film = &spec.scene.film;
     // Admission checked the crop against the film; a spec stored otherwise is an error.
-    let mut image = Image::window(film.width, film.height, spec.window())?;
+    let passes = spindle_common::aov::AovSet::of(&film.passes);
+    let mut image = Image::window(film.width, film.height, spec.window())?.with_passes(passes);
     let mut damaged = Vec::new();
     for (index, hash) in tiles {
         match store.read(job, *index, hash) {
