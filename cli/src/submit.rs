@@ -184,6 +184,9 @@ pub async fn submit_scene_file(
     if let Check::Build { allow_blocked } = check {
         let scene = spindle_render::Scene::build(&files.desc, &files.assets)
             .with_context(|| format!("invalid scene {}", scene_path.display()))?;
+        for warning in scene.warnings() {
+            eprintln!("warning: {warning}");
+        }
         crate::render::refuse_unlit_media(&scene, scene_path, allow_blocked)?;
     }
     // Hash every mesh and upload the ones the coordinator has not seen.

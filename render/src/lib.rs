@@ -18,6 +18,7 @@ pub mod interfaces;
 pub mod light;
 pub mod medium;
 pub mod mesh;
+pub mod mistakes;
 pub mod multiple_scatter;
 pub mod nesting;
 pub mod obj;
