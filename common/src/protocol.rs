@@ -205,6 +205,35 @@ pub const DEFAULT_JOB_PAGE: usize = 100;
 /// Most jobs one `GET /v1/jobs` page holds.
 pub const MAX_JOB_PAGE: usize = 1000;
 
+/// The order of `GET /v1/jobs` (`?order=`): by id, oldest first (`asc`, the default) or newest
+/// first (`desc`, as the dashboard and `spindle jobs` show them).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum JobOrder {
+    #[default]
+    Asc,
+    Desc,
+}
+
+impl JobOrder {
+    /// The query value.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            JobOrder::Asc => "asc",
+            JobOrder::Desc => "desc",
+        }
+    }
+
+    /// The order a query value names, if any.
+    pub fn parse(s: &str) -> Option<JobOrder> {
+        match s {
+            "asc" => Some(JobOrder::Asc),
+            "desc" => Some(JobOrder::Desc),
+            _ => None,
+        }
+    }
+}
+
 fn default_tile_size() -> u32 {
     DEFAULT_TILE_SIZE
 }

@@ -9,8 +9,8 @@ use axum::response::{IntoResponse, Response};
 use base64::Engine;
 use serde::Deserialize;
 use spindle_common::protocol::{
-    ApiError, DEFAULT_JOB_PAGE, IDEMPOTENCY_KEY_HEADER, JobInfo, JobList, JobPatch, JobSpec,
-    JobState, MAX_JOB_PAGE, SubmitJob, check_labels, check_name,
+    ApiError, DEFAULT_JOB_PAGE, IDEMPOTENCY_KEY_HEADER, JobInfo, JobList, JobOrder, JobPatch,
+    JobSpec, JobState, MAX_JOB_PAGE, SubmitJob, check_labels, check_name,
 };
 use utoipa_axum::routes;
 
@@ -121,10 +121,15 @@ struct ListQuery {
     /// `next_cursor` of the previous page (empty: the first page).
     #[param(pattern = "^[0-9]{0,19}$")]
     cursor: Option<String>,
+    /// `asc` (default): oldest first; `desc`: newest first.
+    #[param(value_type = Option<JobOrder>)]
+    order: Option<String>,
 }
 
-/// Lists jobs, oldest first, a page at a time: pass `next_cursor` as `cursor` for the next.
-/// Pages are stable: jobs submitted meanwhile come after the ones already listed.
+/// Lists jobs, oldest first (or newest first with `order=desc`), a page at a time: pass
+/// `next_cursor` as `cursor` for the next. Pages are stable: oldest first, jobs submitted
+/// meanwhile come after the ones already listed; newest first, they are not listed (they are
+/// newer than the first page).
 #[utoipa::path(get, path = "/v1/jobs", params(ListQuery),
     responses((status = 200, body = JobList), (status = 400, body = ApiError)))]
 async fn list_jobs(
@@ -153,11 +158,17 @@ async fn list_jobs(
                 Error::BadRequest("cursor: not a cursor this coordinator gave".into())
             })?),
         };
+    let order = match query.order.as_deref() {
+        None | Some("") => JobOrder::default(),
+        Some(o) => JobOrder::parse(o)
+            .ok_or_else(|| Error::BadRequest(format!("order: {o:?} is not asc or desc")))?,
+    };
     let filter = JobFilter {
         state: job_state,
         name: query.name.filter(|n| !n.is_empty()),
         after,
         limit,
+        order,
     };
     let (jobs, next_cursor) = state.ledger().list(&filter);
     Ok(Json(JobList { jobs, next_cursor }))
