@@ -287,7 +287,9 @@ async fn delete_job(
     Ok(StatusCode::NO_CONTENT)
 }
 
-/// The final EXR, once every tile is in.
+/// The final EXR, once every tile is in; for a cancelled job, the EXR of its finished tiles
+/// (the missing ones transparent black, alpha 0; `spindle.tiles_done` = `N of M` in the header),
+/// made on request with the digest of its bytes.
 #[utoipa::path(get, path = "/v1/jobs/{id}/image.exr", params(("id" = u64, Path, description = "job id")),
     responses((status = 200, content_type = "image/x-exr", body = Vec<u8>),
               (status = 404, body = ApiError), (status = 409, body = ApiError)))]
@@ -295,19 +297,48 @@ async fn image_exr(
     State(state): State<AppState>,
     ApiPath(id): ApiPath<u64>,
 ) -> Result<Response, Error> {
-    {
+    let cancelled = {
         let ledger = state.ledger();
         let job = ledger.job(id)?;
-        if job.state != JobState::Done {
-            return Err(Error::Conflict(format!(
-                "job {id} is {} ({} of {} tiles); the image is ready when the job is done",
-                job.state.as_str(),
-                job.tiles_done,
-                job.tiles_total
-            )));
+        match job.state {
+            JobState::Done => None,
+            JobState::Cancelled => Some((
+                job.spec.clone(),
+                job.stats,
+                job.provenance.clone(),
+                ledger.latest_results(id)?,
+            )),
+            _ => {
+                return Err(Error::Conflict(format!(
+                    "job {id} is {} ({} of {} tiles); the image is ready when the job is done \
+                     (or, its finished tiles, once it is cancelled)",
+                    job.state.as_str(),
+                    job.tiles_done,
+                    job.tiles_total
+                )));
+            }
         }
-    }
-    let (bytes, sha256) = final_image(&state, id).await?;
+    };
+    let (bytes, sha256) = match cancelled {
+        None => final_image(&state, id).await?,
+        Some((spec, stats, provenance, tiles)) => {
+            let store = state.tile_store().clone();
+            tokio::task::spawn_blocking(move || {
+                use sha2::Digest;
+                let facts = assemble::JobFacts {
+                    stats: &stats,
+                    provenance: provenance.as_deref(),
+                    passes: None,
+                    render_seconds: None,
+                };
+                let bytes = assemble::partial(&store, id, &spec, &tiles, &facts)?;
+                let sha256 = sha2::Sha256::digest(&bytes).to_vec();
+                anyhow::Ok((bytes, sha256))
+            })
+            .await
+            .map_err(anyhow::Error::from)??
+        }
+    };
     let digest = base64::engine::general_purpose::STANDARD.encode(&sha256);
     let hex: String = sha256.iter().map(|b| format!("{b:02x}")).collect();
     Ok((
