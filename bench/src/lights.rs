@@ -26,7 +26,7 @@ use anyhow::{Context, Result};
 use rayon::prelude::*;
 use spindle_common::scene as desc;
 use spindle_common::tile::TilePixels;
-use spindle_render::{Assets, PixelProgress, Scene, pixels_to_tile, render_tile};
+use spindle_render::{Assets, PixelProgress, Scene, film_passes, pixels_to_tile, render_tile};
 
 use crate::BenchArgs;
 use crate::metric::{relative_rmse, time_to_reach};
@@ -76,6 +76,7 @@ fn scene(light: desc::Light, size: u32, spp: u32, seed: u64) -> desc::SceneDescr
             target_error: None,
             time_budget_s: None,
             half: false,
+            passes: Vec::new(),
         },
         lights: vec![light],
         objects: vec![desc::Object {
@@ -133,7 +134,10 @@ fn render_progressively(
         });
         let seconds = started.elapsed().as_secs_f64();
         let values: Vec<_> = pixels.par_iter().map(PixelProgress::value).collect();
-        images.push((pixels_to_tile(rect, values.iter()), seconds));
+        images.push((
+            pixels_to_tile(rect, film_passes(&scene), values.iter()),
+            seconds,
+        ));
     }
     Ok(images)
 }

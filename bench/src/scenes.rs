@@ -175,6 +175,7 @@ pub fn film(size: u32, spp: u32) -> desc::Film {
         target_error: None,
         time_budget_s: None,
         half: false,
+        passes: Vec::new(),
     }
 }
 

@@ -15,8 +15,8 @@ use futures_util::stream::BoxStream;
 use reqwest::StatusCode;
 use serde::de::DeserializeOwned;
 use spindle_common::protocol::{
-    ApiError, AssetStored, FarmEvent, IDEMPOTENCY_KEY_HEADER, JobInfo, JobList, JobPatch, JobState,
-    MissingAssetsRequest, MissingAssetsResponse, SubmitJob, WorkerList,
+    ApiError, AssetStored, FarmEvent, IDEMPOTENCY_KEY_HEADER, JobInfo, JobList, JobOrder, JobPatch,
+    JobState, MissingAssetsRequest, MissingAssetsResponse, SubmitJob, WorkerList,
 };
 
 /// Tries of a request whose failure was transient (connection refused, 502, 503, 504; a 500
@@ -122,7 +122,7 @@ impl Api {
         self.json(|| self.http.get(self.url("/v1/jobs"))).await
     }
 
-    /// `GET /v1/jobs?state=&name=&limit=&cursor=`: one page.
+    /// `GET /v1/jobs?state=&name=&limit=&cursor=&order=`: one page.
     pub async fn jobs_page(&self, query: &JobQuery) -> Result<JobList> {
         let mut pairs: Vec<(&str, String)> = Vec::new();
         if let Some(s) = query.state {
@@ -136,6 +136,9 @@ impl Api {
         }
         if let Some(c) = &query.cursor {
             pairs.push(("cursor", c.clone()));
+        }
+        if let Some(o) = query.order {
+            pairs.push(("order", o.as_str().to_string()));
         }
         let mut url = reqwest::Url::parse(&self.url("/v1/jobs"))?;
         if !pairs.is_empty() {
@@ -359,6 +362,7 @@ pub struct JobQuery {
     pub name: Option<String>,
     pub limit: Option<usize>,
     pub cursor: Option<String>,
+    pub order: Option<JobOrder>,
 }
 
 /// Which image of a job to download.

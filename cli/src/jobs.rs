@@ -1,11 +1,11 @@
 //! `spindle jobs [--state S] [--name N] [--limit N]`: the coordinator's jobs, newest first as
 //! the dashboard lists them, with each one's progress and ETA.
 //!
-//! The coordinator pages its list oldest first and has no other order, so every page is read
-//! and the list turned round here; `--limit N` keeps the newest N.
+//! The coordinator's pages are asked for newest first (`order=desc`), so `--limit N` reads
+//! only the pages that hold the newest N.
 
 use anyhow::Result;
-use spindle_common::protocol::{JobInfo, JobState, MAX_JOB_PAGE};
+use spindle_common::protocol::{JobInfo, JobOrder, JobState, MAX_JOB_PAGE};
 
 use crate::api::{Api, JobQuery};
 use crate::status::{state_label, utc_time};
@@ -36,12 +36,14 @@ fn parse_state(s: &str) -> Result<JobState, String> {
 pub async fn run(api: &Api, args: &JobsArgs) -> Result<()> {
     let mut jobs = Vec::new();
     let mut cursor = None;
-    loop {
+    let wanted = args.limit.unwrap_or(usize::MAX);
+    while jobs.len() < wanted {
         let query = JobQuery {
             state: args.state,
             name: args.name.clone(),
-            limit: Some(MAX_JOB_PAGE),
+            limit: Some(MAX_JOB_PAGE.min(wanted - jobs.len()).max(1)),
             cursor: cursor.take(),
+            order: Some(JobOrder::Desc),
         };
         let page = api.jobs_page(&query).await?;
         jobs.extend(page.jobs);
@@ -50,7 +52,7 @@ pub async fn run(api: &Api, args: &JobsArgs) -> Result<()> {
             None => break,
         }
     }
-    newest_first(&mut jobs, args.limit);
+    jobs.truncate(wanted);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&jobs)?);
     } else if jobs.is_empty() {
@@ -59,15 +61,6 @@ pub async fn run(api: &Api, args: &JobsArgs) -> Result<()> {
         print!("{}", table(&jobs));
     }
     Ok(())
-}
-
-/// Orders `jobs` (as the coordinator lists them: by id, oldest first) newest first, keeping
-/// the newest `limit`.
-fn newest_first(jobs: &mut Vec<JobInfo>, limit: Option<usize>) {
-    jobs.sort_by_key(|j| std::cmp::Reverse(j.id));
-    if let Some(limit) = limit {
-        jobs.truncate(limit);
-    }
 }
 
 /// One line per job, under a header.

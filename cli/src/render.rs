@@ -360,6 +360,11 @@ async fn on_local_farm(args: &RenderArgs, workers: usize, signals: &Signals) -> 
     // The workers build the scene again; here it is built once to say the single-scattering plan.
     let scene = on_threads(args.threads, || Scene::build(&files.desc, &files.assets))?
         .with_context(|| format!("invalid scene {}", args.scene.display()))?;
+    if !args.quiet {
+        for warning in scene.warnings() {
+            eprintln!("warning: {warning}");
+        }
+    }
     refuse_unlit_media(&scene, &args.scene, args.allow_blocked)?;
     let provenance = provenance(&scene);
     drop(scene);

@@ -222,6 +222,9 @@ pub async fn submit_scene_file(
         };
         let scene = spindle_render::Scene::build(&still, &files.assets)
             .with_context(|| format!("invalid scene {}", scene_path.display()))?;
+        for warning in scene.warnings() {
+            eprintln!("warning: {warning}");
+        }
         crate::render::refuse_unlit_media(&scene, scene_path, allow_blocked)?;
     }
     // Hash every mesh and upload the ones the coordinator has not seen.

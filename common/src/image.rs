@@ -18,9 +18,10 @@
 //!   with the default black `background` it is premultiplied by `A` as OpenEXR expects — a
 //!   sample that misses every object adds nothing — and a non-black background is in it),
 //!   `surface.R/G/B`, `single_scatter.R/G/B`, `multiple_scatter.R/G/B` and `stderr.R/G/B`,
-//!   all 32-bit float (or all
+//!   then the optional passes the image holds (`Z`, `normal.X/Y/Z`, `albedo.R/G/B`, `id.id`:
+//!   [`crate::aov`]), all 32-bit float (or all
 //!   16-bit half floats with [`Precision::Half`], `film.half`: half the size, about three
-//!   significant digits, values above 65504 become infinite), and one
+//!   significant digits, values above 65504 become infinite; `id.id` stays 32-bit), and one
 //!   text header attribute (UTF-8) per entry of [`Image::attributes`], beside the standard
 //!   attributes of [`Image::standard`] (`software`, `worldToCamera`, `worldToNDC`,
 //!   `renderTime`).
@@ -35,6 +36,7 @@ use std::collections::BTreeMap;
 use std::io::Cursor;
 use std::path::Path;
 
+use crate::aov::{Aov, AovSet};
 use crate::atomic_write;
 use crate::tile::{LAYERS, TilePixels, TileRect};
 
@@ -64,6 +66,15 @@ pub enum ImageError {
     #[error("layer `{layer}` has {actual} samples, expected {expected} (3 per pixel)")]
     BufferLength {
         layer: &'static str,
+        expected: usize,
+        actual: usize,
+    },
+    /// The optional passes of a tile or an image have the wrong number of values.
+    #[error(
+        "the optional passes (`film.passes`: {passes}) have {actual} values, expected {expected}"
+    )]
+    PassLength {
+        passes: String,
         expected: usize,
         actual: usize,
     },
@@ -165,6 +176,11 @@ pub struct Image {
     pub stderr: Vec<f32>,
     /// The coverage of objects against the background, one value per pixel, row-major.
     pub alpha: Vec<f32>,
+    /// The optional passes the image holds (`film.passes`; none by default).
+    pub passes: AovSet,
+    /// Their values, `passes.values_per_pixel()` per pixel, row-major, as
+    /// [`TilePixels::aov`] holds them.
+    pub aov: Vec<f32>,
     /// Written as text attributes of the EXR header (e.g. `spindle.spp` = `64`).
     pub attributes: BTreeMap<String, String>,
     /// Standard attributes of the EXR header.
@@ -192,6 +208,8 @@ impl Image {
             multiple_scatter: vec![0.0; n],
             stderr: vec![0.0; n],
             alpha: vec![0.0; n / 3],
+            passes: AovSet::NONE,
+            aov: Vec::new(),
             attributes: BTreeMap::new(),
             standard: StandardAttributes::default(),
             precision: Precision::Float,
@@ -217,6 +235,14 @@ impl Image {
         };
         image.check_placement()?;
         Ok(image)
+    }
+
+    /// The same image holding the optional passes `passes` too (all zero), which every tile
+    /// inserted must then carry.
+    pub fn with_passes(mut self, passes: AovSet) -> Image {
+        self.passes = passes;
+        self.aov = vec![0.0; self.pixel_count() * passes.values_per_pixel()];
+        self
     }
 
     /// The rectangle of the film this image holds, in film coordinates.
@@ -308,14 +334,28 @@ impl Image {
             }
         }
 
+        let aov_channels = self.passes.values_per_pixel();
+        let expected = rect.pixel_count() * aov_channels;
+        if tile.aov.len() != expected {
+            return Err(ImageError::PassLength {
+                passes: self.passes_named(),
+                expected,
+                actual: tile.aov.len(),
+            });
+        }
+
         let image_width = self.width as usize;
-        for ((layer, dst), src) in LAYERS.iter().zip(self.layers_mut()).zip(tile.layers()) {
-            let row_len = rect.width as usize * layer.channels;
+        let copy = |channels: usize, dst: &mut [f32], src: &[f32]| {
+            let row_len = rect.width as usize * channels;
             for row in 0..rect.height as usize {
-                let start = ((top + row) * image_width + left) * layer.channels;
+                let start = ((top + row) * image_width + left) * channels;
                 dst[start..start + row_len].copy_from_slice(&src[row * row_len..][..row_len]);
             }
+        };
+        for ((layer, dst), src) in LAYERS.iter().zip(self.layers_mut()).zip(tile.layers()) {
+            copy(layer.channels, dst, src);
         }
+        copy(aov_channels, &mut self.aov, &tile.aov);
         Ok(())
     }
 
@@ -347,7 +387,25 @@ impl Image {
                 });
             }
         }
+        let expected = self.pixel_count() * self.passes.values_per_pixel();
+        if self.aov.len() != expected {
+            return Err(ImageError::PassLength {
+                passes: self.passes_named(),
+                expected,
+                actual: self.aov.len(),
+            });
+        }
         Ok(())
+    }
+
+    /// The image's passes as `film.passes` lists them (`depth, id`), or `none`.
+    fn passes_named(&self) -> String {
+        let names: Vec<_> = self.passes.iter().map(|a| a.name()).collect();
+        if names.is_empty() {
+            "none".into()
+        } else {
+            names.join(", ")
+        }
     }
 
     fn check_writable(&self) -> Result<(), ImageError> {
@@ -425,6 +483,19 @@ impl Image {
                 };
                 channels.push(AnyChannel::new(*name, samples));
             }
+        }
+        let n = self.passes.values_per_pixel();
+        for (c, (aov, name)) in self.passes.exr_channels().enumerate() {
+            let plane = (0..pixels).map(|p| self.aov[p * n + c]);
+            // An id is a number, not a measure: 32-bit always, so every id stays exact.
+            let samples = match self.precision {
+                _ if aov == Aov::Id => FlatSamples::F32(plane.collect()),
+                Precision::Float => FlatSamples::F32(plane.collect()),
+                Precision::Half => {
+                    FlatSamples::F16(plane.map(exr::prelude::f16::from_f32).collect())
+                }
+            };
+            channels.push(AnyChannel::new(name, samples));
         }
 
         let encoding = Encoding {
@@ -779,12 +850,60 @@ fn read_exr_from(bytes: &[u8], path: &str) -> Result<Image, ImageError> {
             _ => {}
         }
     }
+    read_passes(layer, &mut image, &exr_error)?;
     image.precision = precision;
     let standard = &layer.attributes;
     image.standard.software = standard.software_name.as_ref().map(text_to_string);
     image.standard.world_to_camera = standard.world_to_camera;
     image.standard.world_to_ndc = standard.world_to_normalized_device;
     Ok(image)
+}
+
+/// Reads the optional passes whose channels are all in the file (a pass with some of its
+/// channels missing is an error) into `image`.
+fn read_passes(
+    layer: &exr::prelude::Layer<exr::prelude::AnyChannels<exr::prelude::FlatSamples>>,
+    image: &mut Image,
+    exr_error: &dyn Fn(String) -> ImageError,
+) -> Result<(), ImageError> {
+    let find = |name: &str| layer.channel_data.list.iter().find(|ch| ch.name.eq(name));
+    let mut present = Vec::new();
+    for aov in Aov::ALL {
+        let found = aov
+            .exr_channels()
+            .iter()
+            .filter(|n| find(n).is_some())
+            .count();
+        if found == aov.channels() {
+            present.push(aov);
+        } else if found > 0 {
+            return Err(exr_error(format!(
+                "the `{}` pass has only {found} of its channels {:?}",
+                aov.name(),
+                aov.exr_channels()
+            )));
+        }
+    }
+    *image = std::mem::replace(image, Image::new(0, 0)).with_passes(AovSet::of(&present));
+    let n = image.passes.values_per_pixel();
+    let pixels = image.pixel_count();
+    for (c, (_, name)) in image.passes.exr_channels().enumerate() {
+        let Some(channel) = find(name) else { continue };
+        let samples: Vec<f32> = match &channel.sample_data {
+            exr::prelude::FlatSamples::F32(samples) => samples.clone(),
+            exr::prelude::FlatSamples::F16(samples) => samples.iter().map(|v| v.to_f32()).collect(),
+            exr::prelude::FlatSamples::U32(_) => {
+                return Err(exr_error(format!("channel `{name}` is not floating point")));
+            }
+        };
+        if samples.len() != pixels {
+            return Err(exr_error(format!("channel `{name}` has the wrong size")));
+        }
+        for (p, v) in samples.iter().enumerate() {
+            image.aov[p * n + c] = *v;
+        }
+    }
+    Ok(())
 }
 
 /// EXR text as a string: UTF-8 as spindle writes it, or else Latin-1 (one byte per character,

@@ -4,6 +4,7 @@
 #![forbid(unsafe_code)]
 
 pub mod animation;
+pub mod aov;
 pub mod atomic_write;
 pub mod camera_matrices;
 pub mod header;

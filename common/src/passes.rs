@@ -34,6 +34,9 @@ pub struct PixelSums {
     pub hits: u32,
     /// The pixel met `film.target_error` and takes no more samples.
     pub converged: bool,
+    /// The sums of the optional passes, when the film asks for any (`film.passes`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub aov: Option<crate::aov::AovSums>,
 }
 
 /// A tile's state after a progressive pass: each pixel's sums in row-major order.
@@ -49,7 +52,8 @@ pub struct TileProgress {
 
 impl TileProgress {
     /// The canonical bytes of the state, little-endian, in field order: `pass`, `spp`, then per
-    /// pixel its fields (f64 bits, `taken` and `hits` as u32, `converged` as one byte). Part of a tile
+    /// pixel its fields (f64 bits, `taken` and `hits` as u32, `converged` as one byte, then the
+    /// passes' sums if any, [`crate::aov::AovSums::canonical_bytes`]). Part of a tile
     /// result's hash ([`crate::protocol::pixel_hash`]), so a stored state cannot change
     /// unnoticed.
     pub fn canonical_bytes(&self, out: &mut Vec<u8>) {
@@ -71,6 +75,9 @@ impl TileProgress {
             out.extend_from_slice(&p.taken.to_le_bytes());
             out.extend_from_slice(&p.hits.to_le_bytes());
             out.push(u8::from(p.converged));
+            if let Some(aov) = &p.aov {
+                aov.canonical_bytes(out);
+            }
         }
     }
 }

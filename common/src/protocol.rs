@@ -211,6 +211,35 @@ pub const DEFAULT_JOB_PAGE: usize = 100;
 /// Most jobs one `GET /v1/jobs` page holds.
 pub const MAX_JOB_PAGE: usize = 1000;
 
+/// The order of `GET /v1/jobs` (`?order=`): by id, oldest first (`asc`, the default) or newest
+/// first (`desc`, as the dashboard and `spindle jobs` show them).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum JobOrder {
+    #[default]
+    Asc,
+    Desc,
+}
+
+impl JobOrder {
+    /// The query value.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            JobOrder::Asc => "asc",
+            JobOrder::Desc => "desc",
+        }
+    }
+
+    /// The order a query value names, if any.
+    pub fn parse(s: &str) -> Option<JobOrder> {
+        match s {
+            "asc" => Some(JobOrder::Asc),
+            "desc" => Some(JobOrder::Desc),
+            _ => None,
+        }
+    }
+}
+
 fn default_tile_size() -> u32 {
     DEFAULT_TILE_SIZE
 }
@@ -872,9 +901,9 @@ impl TileUpload {
     pub fn max_packed_bytes(rect: TileRect) -> usize {
         const VALUE: usize = 9;
         // A pixel's `PixelSums`: 15 numbers, its field names and headers (about 205 bytes as
-        // written, every number as an f64 or u64).
-        const PIXEL_SUMS: usize = 256;
-        let values = rect.pixel_count() * crate::tile::VALUES_PER_PIXEL;
+        // written, every number as an f64 or u64), and the passes' 8 sums (about 110 more).
+        const PIXEL_SUMS: usize = 384;
+        let values = rect.pixel_count() * MAX_VALUES_PER_PIXEL;
         values * VALUE + rect.pixel_count() * PIXEL_SUMS + UPLOAD_FIXED_BYTES
     }
 
@@ -882,12 +911,16 @@ impl TileUpload {
     /// at most 24 characters and a comma per number).
     pub fn max_json_bytes(rect: TileRect) -> usize {
         const VALUE: usize = 32;
-        const PIXEL_SUMS: usize = 512;
-        let values = rect.pixel_count() * crate::tile::VALUES_PER_PIXEL;
+        const PIXEL_SUMS: usize = 768;
+        let values = rect.pixel_count() * MAX_VALUES_PER_PIXEL;
         // A provenance line's characters written as `\u00XX` escapes take 6 bytes each.
         values * VALUE + rect.pixel_count() * PIXEL_SUMS + 6 * UPLOAD_FIXED_BYTES
     }
 }
+
+/// The most values a pixel of an upload can have: every layer's and every optional pass's.
+const MAX_VALUES_PER_PIXEL: usize =
+    crate::tile::VALUES_PER_PIXEL + crate::aov::MAX_VALUES_PER_PIXEL;
 
 /// The bytes of an upload beside its pixel values: the provenance (two lists of
 /// [`crate::provenance::MAX_LINES`] lines of [`crate::provenance::MAX_LINE_BYTES`], and the
@@ -927,7 +960,8 @@ pub struct TileFailure {
 
 /// The canonical bytes of a tile's pixels: the rectangle (`x, y, width, height` as u32
 /// little-endian), then each layer in [`crate::tile::LAYERS`] order as f32 little-endian
-/// bits, then a progressive pass's state if there is one ([`crate::passes::TileProgress::canonical_bytes`]).
+/// bits, then the optional passes' values if there are any (their count as u64, then each as f32
+/// bits), then a progressive pass's state if there is one ([`crate::passes::TileProgress::canonical_bytes`]).
 /// Statistics are not part of it.
 pub fn canonical_pixel_bytes(pixels: &TilePixels) -> Vec<u8> {
     let floats: usize = pixels.layers().iter().map(|l| l.len()).sum();
@@ -938,6 +972,12 @@ pub fn canonical_pixel_bytes(pixels: &TilePixels) -> Vec<u8> {
     }
     for layer in pixels.layers() {
         for v in layer {
+            bytes.extend_from_slice(&v.to_bits().to_le_bytes());
+        }
+    }
+    if !pixels.aov.is_empty() {
+        bytes.extend_from_slice(&(pixels.aov.len() as u64).to_le_bytes());
+        for v in &pixels.aov {
             bytes.extend_from_slice(&v.to_bits().to_le_bytes());
         }
     }
@@ -1004,6 +1044,9 @@ mod tests {
                 *v = -f32::from_bits((next() as u32 & 0x007f_ffff) | 0x0080_0000);
             }
         }
+        pixels.aov = (0..rect.pixel_count() * crate::aov::MAX_VALUES_PER_PIXEL)
+            .map(|_| -f32::from_bits((next() as u32 & 0x007f_ffff) | 0x0080_0000))
+            .collect();
         let mut stats = serde_json::to_value(RenderStats::default()).unwrap();
         for v in stats.as_object_mut().unwrap().values_mut() {
             *v = serde_json::Value::from(u64::MAX);
@@ -1022,6 +1065,12 @@ mod tests {
                 taken: u32::MAX,
                 hits: u32::MAX,
                 converged: true,
+                aov: Some(crate::aov::AovSums {
+                    depth: long_f64(),
+                    normal: [long_f64(), long_f64(), long_f64()],
+                    albedo: [long_f64(), long_f64(), long_f64()],
+                    id: u32::MAX,
+                }),
             })
             .collect();
         pixels.progress = Some(crate::passes::TileProgress {

@@ -400,6 +400,10 @@ pub struct Film {
     /// values above 65504 infinite) instead of 32-bit floats. The pixels rendered are the same.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub half: bool,
+    /// Optional passes written beside the radiance layers ([`crate::aov`]): any of `depth`,
+    /// `normal`, `albedo`, `id`, each at most once. Empty: none (alpha is always written).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub passes: Vec<crate::aov::Aov>,
 }
 
 /// Samples a pixel takes between two checks of its error under `film.target_error` (and

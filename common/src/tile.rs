@@ -125,6 +125,15 @@ pub struct TilePixels {
     /// One value per pixel (see [`LAYERS`]).
     #[serde(deserialize_with = "finite_layer")]
     pub alpha: Vec<f32>,
+    /// The optional passes of `film.passes` ([`crate::aov`]): per pixel the chosen passes'
+    /// values in [`crate::aov::Aov::ALL`] order, row-major; empty (and not serialized) when the
+    /// film asks for none, so a tile without passes costs nothing more.
+    #[serde(
+        default,
+        skip_serializing_if = "Vec::is_empty",
+        deserialize_with = "finite_layer"
+    )]
+    pub aov: Vec<f32>,
     pub stats: RenderStats,
     /// A progressive pass's result (a farm job with `film.time_budget_s`): every pixel's running
     /// sums, from which the tile's next pass continues. Absent for one-pass results; never
@@ -173,6 +182,7 @@ impl TilePixels {
             multiple_scatter: vec![0.0; n],
             stderr: vec![0.0; n],
             alpha: vec![0.0; rect.pixel_count()],
+            aov: Vec::new(),
             stats: RenderStats::default(),
             progress: None,
         }
@@ -188,6 +198,16 @@ impl TilePixels {
             &self.stderr,
             &self.alpha,
         ]
+    }
+
+    /// Values per pixel of the optional passes (0 without any, or when `aov` does not hold a
+    /// whole number of values per pixel, which `Image::insert_tile` refuses).
+    pub fn aov_values_per_pixel(&self) -> usize {
+        match self.rect.pixel_count() {
+            0 => 0,
+            n if self.aov.len().is_multiple_of(n) => self.aov.len() / n,
+            _ => 0,
+        }
     }
 
     /// The pixels (and pass state) of the band [`TileRect::rows`]`(first, count)` of this tile;
@@ -209,6 +229,11 @@ impl TilePixels {
             multiple_scatter: part(&self.multiple_scatter, values.clone()),
             stderr: part(&self.stderr, values),
             alpha: part(&self.alpha, pixels.clone()),
+            aov: part(
+                &self.aov,
+                pixels.start * self.aov_values_per_pixel()
+                    ..pixels.end * self.aov_values_per_pixel(),
+            ),
             stats: RenderStats::default(),
             progress: self.progress.as_ref().map(|p| TileProgress {
                 pass: p.pass,
@@ -255,6 +280,7 @@ impl TilePixels {
                 .extend_from_slice(&band.multiple_scatter);
             tile.stderr.extend_from_slice(&band.stderr);
             tile.alpha.extend_from_slice(&band.alpha);
+            tile.aov.extend_from_slice(&band.aov);
             tile.stats.add(&band.stats);
             if let (Some(all), Some(p)) = (progress.as_mut(), band.progress) {
                 all.pixels.extend(p.pixels);

@@ -160,6 +160,7 @@ mod tests {
             multiple_scatter: layer(5),
             stderr: layer(3),
             alpha: layer(4)[..rect.pixel_count()].to_vec(),
+            aov: Vec::new(),
             stats: RenderStats::default(),
             progress: None,
         }

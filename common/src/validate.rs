@@ -208,6 +208,14 @@ fn check_film(path: &str, film: &Film) -> Check {
             MAX_TIME_BUDGET_S,
         )?;
     }
+    for (i, pass) in film.passes.iter().enumerate() {
+        if film.passes[..i].contains(pass) {
+            return Err(SceneError::new(
+                format!("{path}.passes[{i}]"),
+                format!("`{}` is listed twice; list each pass once", pass.name()),
+            ));
+        }
+    }
     Ok(())
 }
 

@@ -286,6 +286,7 @@ fn convert(
             target_error: None,
             time_budget_s: None,
             half: false,
+            passes: Vec::new(),
         },
         lights,
         objects,

@@ -85,6 +85,11 @@ impl Camera {
     pub fn position(&self) -> DVec3 {
         self.position
     }
+
+    /// The viewing axis (unit): camera-space depth is measured along it.
+    pub fn forward(&self) -> DVec3 {
+        self.forward
+    }
 }
 
 #[cfg(test)]

@@ -14,7 +14,7 @@ use rayon::prelude::*;
 use spindle_common::scene::ADAPTIVE_BATCH;
 
 use crate::scene::Scene;
-use crate::tile::{PixelProgress, pixels_to_tile, render_tile_with_progress};
+use crate::tile::{PixelProgress, film_passes, pixels_to_tile, render_tile_with_progress};
 
 /// Tile edge for in-process rendering: small enough for a lively preview order, large enough to
 /// keep every core busy inside a tile.
@@ -57,7 +57,7 @@ pub fn render_frame_until(
     let film = scene.film();
     let tiles = split_window_centre_first(region, TILE_SIZE);
     let mut frame = FrameSoFar {
-        image: Image::window(film.width, film.height, region)?,
+        image: Image::window(film.width, film.height, region)?.with_passes(film_passes(scene)),
         stats: RenderStats::default(),
         tiles_done: 0,
         tiles_total: tiles.len(),
@@ -128,8 +128,8 @@ pub fn render_frame_passes(
         }
     }
     let values: Vec<_> = pixels.par_iter().map(PixelProgress::value).collect();
-    let tile = pixels_to_tile(region, values.iter());
-    let mut image = Image::window(film.width, film.height, region)?;
+    let tile = pixels_to_tile(region, film_passes(scene), values.iter());
+    let mut image = Image::window(film.width, film.height, region)?.with_passes(film_passes(scene));
     image.insert_tile(&tile)?;
     Ok((image, tile.stats, report))
 }

@@ -12,6 +12,7 @@ pub mod camera;
 pub mod contact;
 pub mod containment;
 pub mod crossing;
+pub mod first_hit;
 pub mod flat_face;
 pub mod frame;
 pub mod fresnel;
@@ -19,6 +20,7 @@ pub mod interfaces;
 pub mod light;
 pub mod medium;
 pub mod mesh;
+pub mod mistakes;
 pub mod multiple_scatter;
 pub mod nesting;
 pub mod obj;
@@ -44,6 +46,7 @@ pub use rgb::Rgb;
 pub use scene::{Assets, Scene};
 pub use spindle_common::validate::SceneError;
 pub use tile::{
-    PixelProgress, PixelValue, pixels_to_tile, render_pixel, render_tile, render_tile_with_progress,
+    PixelProgress, PixelValue, film_passes, pixels_to_tile, render_pixel, render_tile,
+    render_tile_with_progress,
 };
 pub use tile_pass::{PassError, render_tile_pass};

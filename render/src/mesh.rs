@@ -34,6 +34,8 @@ pub struct TriangleMesh {
     positions: Vec<DVec3>,
     normals: Vec<DVec3>,
     triangles: Vec<[u32; 3]>,
+    /// The mesh was given closed and wound inside-out, and was rewound outward.
+    turned_outward: bool,
 }
 
 /// A summary of a mesh's shape, for warnings and logs.
@@ -47,6 +49,12 @@ pub struct MeshReport {
     pub closed: bool,
     /// Edges used by only one triangle (holes).
     pub boundary_edges: usize,
+    /// Edges used by two triangles that traverse them in the same direction: faces wound
+    /// against their neighbours (flipped faces).
+    pub flipped_edges: usize,
+    /// The mesh was given closed but wound inside-out (negative enclosed volume); it was
+    /// rewound outward.
+    pub inside_out: bool,
 }
 
 impl TriangleMesh {
@@ -59,7 +67,7 @@ impl TriangleMesh {
         normals: Option<Vec<DVec3>>,
         triangles: Vec<[u32; 3]>,
     ) -> Result<TriangleMesh, MeshError> {
-        let triangles = checked_and_oriented(&positions, triangles)?;
+        let (triangles, turned_outward) = checked_and_oriented(&positions, triangles)?;
         let smooth = smooth_normals(&positions, &triangles);
         let normals = match normals {
             None => smooth,
@@ -88,6 +96,7 @@ impl TriangleMesh {
             positions,
             normals,
             triangles,
+            turned_outward,
         })
     }
 
@@ -100,12 +109,13 @@ impl TriangleMesh {
         triangles: Vec<[u32; 3]>,
         crease: f64,
     ) -> Result<TriangleMesh, MeshError> {
-        let triangles = checked_and_oriented(&positions, triangles)?;
+        let (triangles, turned_outward) = checked_and_oriented(&positions, triangles)?;
         let (positions, triangles, normals) = creased_normals(&positions, &triangles, crease);
         Ok(TriangleMesh {
             positions,
             normals,
             triangles,
+            turned_outward,
         })
     }
 
@@ -205,15 +215,17 @@ impl TriangleMesh {
 
     /// Degenerate triangles and closedness.
     pub fn report(&self) -> MeshReport {
-        let (closed, boundary_edges) = edge_report(&self.positions, &self.triangles);
+        let edges = edge_report(&self.positions, &self.triangles);
         let degenerate = (0..self.triangles.len())
             .filter(|&i| is_degenerate(self.corners(i)))
             .count();
         MeshReport {
             triangles: self.triangles.len(),
             degenerate,
-            closed,
-            boundary_edges,
+            closed: edges.closed,
+            boundary_edges: edges.boundary,
+            flipped_edges: edges.flipped,
+            inside_out: self.turned_outward,
         }
     }
 
@@ -241,16 +253,18 @@ impl TriangleMesh {
             positions,
             normals,
             triangles,
+            turned_outward: self.turned_outward,
         }
     }
 }
 
 /// The checks every mesh passes (triangles, finite coordinates, indices in range), and a
 /// closed mesh wound inside-out (negative enclosed volume) rewound outward.
+/// Returns the triangles and whether they were rewound.
 fn checked_and_oriented(
     positions: &[DVec3],
     mut triangles: Vec<[u32; 3]>,
-) -> Result<Vec<[u32; 3]>, MeshError> {
+) -> Result<(Vec<[u32; 3]>, bool), MeshError> {
     if triangles.is_empty() {
         return Err(MeshError::Empty);
     }
@@ -270,12 +284,14 @@ fn checked_and_oriented(
         }
     }
     // The volume is only meaningful when the mesh is closed.
-    if signed_volume(positions, &triangles) < 0.0 && edge_report(positions, &triangles).0 {
+    let inside_out =
+        signed_volume(positions, &triangles) < 0.0 && edge_report(positions, &triangles).closed;
+    if inside_out {
         for t in &mut triangles {
             t.swap(1, 2);
         }
     }
-    Ok(triangles)
+    Ok((triangles, inside_out))
 }
 
 /// A triangle is degenerate when its area is below 1e-12 of the square of its longest edge
@@ -308,8 +324,18 @@ fn weld(positions: &[DVec3]) -> Vec<u32> {
     canon
 }
 
-/// `(closed, boundary_edges)` of a triangle soup, welding vertices by exact position.
-fn edge_report(positions: &[DVec3], triangles: &[[u32; 3]]) -> (bool, usize) {
+/// How a triangle soup's edges are shared, vertices welded by exact position.
+struct EdgeReport {
+    /// Every edge used once in each direction.
+    closed: bool,
+    /// Edges used once.
+    boundary: usize,
+    /// Edges used twice in the same direction.
+    flipped: usize,
+}
+
+/// The [`EdgeReport`] of a triangle soup.
+fn edge_report(positions: &[DVec3], triangles: &[[u32; 3]]) -> EdgeReport {
     let canon = weld(positions);
     // Every directed edge as (undirected key, direction), sorted so each edge's uses are adjacent.
     let mut edges: Vec<(u64, bool)> = Vec::with_capacity(triangles.len() * 3);
@@ -322,14 +348,19 @@ fn edge_report(positions: &[DVec3], triangles: &[[u32; 3]]) -> (bool, usize) {
         }
     }
     edges.par_sort_unstable();
-    let (mut boundary, mut closed) = (0, !edges.is_empty());
+    let (mut boundary, mut flipped, mut closed) = (0, 0, !edges.is_empty());
     for group in edges.chunk_by(|x, y| x.0 == y.0) {
         let forward = group.iter().filter(|e| e.1).count();
         let reverse = group.len() - forward;
         boundary += (group.len() == 1) as usize;
+        flipped += (group.len() == 2 && (forward == 2 || reverse == 2)) as usize;
         closed &= forward == 1 && reverse == 1;
     }
-    (closed, boundary)
+    EdgeReport {
+        closed,
+        boundary,
+        flipped,
+    }
 }
 
 /// Signed enclosed volume (positive when a closed mesh winds outward).

@@ -27,6 +27,7 @@ use crate::interfaces::{self, SecondInterface};
 use crate::light::{Light, SceneSphere};
 use crate::medium::Medium;
 use crate::mesh::{MeshReport, TriangleMesh};
+use crate::mistakes;
 use crate::nesting::{self, Route, absolute_eta, relative_eta};
 use crate::obj::parse_obj_with;
 use crate::procedural::{MAX_SUBDIVISIONS, bumpy_sphere, icosphere};
@@ -197,13 +198,18 @@ impl Scene {
                     o.name
                 ));
             }
-            if matches!(o.material, Material::Dielectric(_)) && !o.report.closed {
+            let flipped = mistakes::flipped_faces(&what, &o.report);
+            if matches!(o.material, Material::Dielectric(_))
+                && !o.report.closed
+                && flipped.is_none()
+            {
                 warnings.push(format!(
                     "{what}: the dielectric mesh is not closed ({} boundary edges); rays that \
                      leave through a hole are treated as leaving the object",
                     o.report.boundary_edges
                 ));
             }
+            warnings.extend(flipped);
             if o.report.degenerate > 0 {
                 warnings.push(format!(
                     "{what}: {} degenerate triangles (never hit)",
@@ -249,6 +255,12 @@ impl Scene {
         let light_centers: Vec<DVec3> = lights.iter().map(Light::center).collect();
         let contacts = Contacts::find(&objects, scale)?;
         check_media_layout(&objects, camera.position(), &light_centers)?;
+        warnings.extend(mistakes::lights_facing_away(&objects, &lights));
+        warnings.extend(mistakes::camera_inside(
+            &objects,
+            camera.position(),
+            &light_centers,
+        ));
         let camera_medium = nesting::innermost_holding(&objects, camera.position(), None);
         let mut light_media = Vec::with_capacity(lights.len());
         for (j, light) in lights.iter().enumerate() {

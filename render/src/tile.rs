@@ -6,15 +6,20 @@
 //!
 //! Beside the radiance each pixel keeps its coverage (the `alpha` layer): how many of its
 //! samples' camera rays hit an object (`Scene::bvh`'s first hit of the very ray the transport
-//! follows), so alpha is exact in the samples taken and travels between passes as a count.
+//! follows), so alpha is exact in the samples taken and travels between passes as a count. With
+//! `film.passes` it also sums what that first hit is ([`crate::first_hit`]): the optional passes
+//! are means over the pixel's samples, as Mitsuba 3's `aov` integrator writes them, except the
+//! object id, sample 0's. Without passes no sum is kept or carried.
 
 use rayon::prelude::*;
+use spindle_common::aov::{AovSet, AovSums};
 use spindle_common::passes::PixelSums;
 use spindle_common::scene::ADAPTIVE_BATCH;
 use spindle_common::stats::RenderStats;
 use spindle_common::tile::{TilePixels, TileRect};
 
 use crate::Rgb;
+use crate::first_hit::first_hit;
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::transport::{Radiance, radiance};
@@ -29,6 +34,9 @@ pub struct PixelValue {
     pub stderr: Rgb,
     /// The share of the samples whose camera ray hit an object, in [0, 1].
     pub alpha: f64,
+    /// The sums of the optional passes (`film.passes`) and the samples they are over; `None`
+    /// when the film asks for none.
+    pub aov: Option<(AovSums, u32)>,
     pub stats: RenderStats,
 }
 
@@ -63,6 +71,8 @@ pub struct PixelProgress {
     hits: u32,
     /// The pixel met `film.target_error` at a batch boundary.
     converged: bool,
+    /// The optional passes' sums, when the film asks for any.
+    aov: Option<AovSums>,
     stats: RenderStats,
 }
 
@@ -83,6 +93,7 @@ impl PixelProgress {
             taken: sums.taken,
             hits: sums.hits,
             converged: sums.converged,
+            aov: sums.aov,
             stats: RenderStats::default(),
         }
     }
@@ -100,6 +111,7 @@ impl PixelProgress {
             taken: self.taken,
             hits: self.hits,
             converged: self.converged,
+            aov: self.aov,
         }
     }
 
@@ -117,13 +129,20 @@ impl PixelProgress {
     /// the pixel meets `film.target_error`.
     pub fn advance(&mut self, scene: &Scene, x: u32, y: u32, cap: u32) {
         let film = scene.film();
+        if !film.passes.is_empty() && self.aov.is_none() {
+            self.aov = Some(AovSums::default());
+        }
         while !self.converged && self.taken < cap {
             let mut sampler = Sampler::new(film.seed, x, y, self.taken);
             let [u, v] = sampler.next_2d();
             let ray = scene.camera().ray(x as f64 + u, y as f64 + v);
             self.stats.camera_rays += 1;
-            if scene.bvh().closest_hit(&ray).is_some() {
+            let hit = scene.bvh().closest_hit(&ray);
+            if hit.is_some() {
                 self.hits += 1;
+            }
+            if let Some(sums) = self.aov.as_mut() {
+                sums.add(self.taken, &first_hit(scene, &ray, hit.as_ref()));
             }
             let r = radiance(scene, &ray, &mut sampler, &mut self.stats);
             self.sum.surface += r.surface;
@@ -166,6 +185,7 @@ impl PixelProgress {
             },
             stderr,
             alpha: f64::from(self.hits) / n,
+            aov: self.aov.map(|sums| (sums, self.taken)),
             stats: self.stats,
         }
     }
@@ -197,15 +217,26 @@ pub fn render_tile_with_progress(
             values
         })
         .collect();
-    pixels_to_tile(rect, rows.iter().flatten())
+    pixels_to_tile(rect, film_passes(scene), rows.iter().flatten())
 }
 
-/// The tile of `rect` from its pixels' values, in row-major order.
+/// The optional passes `scene`'s film asks for.
+pub fn film_passes(scene: &Scene) -> AovSet {
+    AovSet::of(&scene.film().passes)
+}
+
+/// The tile of `rect` from its pixels' values, in row-major order, with the optional passes
+/// `passes` ([`film_passes`] of the scene that rendered them).
 pub fn pixels_to_tile<'a>(
     rect: TileRect,
+    passes: AovSet,
     values: impl Iterator<Item = &'a PixelValue>,
 ) -> TilePixels {
     let mut tile = TilePixels::black(rect);
+    if !passes.is_empty() {
+        tile.aov
+            .reserve(rect.pixel_count() * passes.values_per_pixel());
+    }
     for (i, value) in values.enumerate() {
         let r = value.radiance;
         let total = r.total();
@@ -217,6 +248,10 @@ pub fn pixels_to_tile<'a>(
             tile.stderr[3 * i + c] = value.stderr[c] as f32;
         }
         tile.alpha[i] = value.alpha as f32;
+        if !passes.is_empty() {
+            let (sums, taken) = value.aov.unwrap_or_default();
+            sums.write_means(passes, taken, &mut tile.aov);
+        }
         tile.stats.add(&value.stats);
     }
     tile

@@ -11,7 +11,7 @@ use spindle_common::passes::{TileProgress, pass_cap};
 use spindle_common::tile::{TilePixels, TileRect};
 
 use crate::scene::Scene;
-use crate::tile::{PixelProgress, pixels_to_tile};
+use crate::tile::{PixelProgress, film_passes, pixels_to_tile};
 
 /// Why a tile's earlier pass cannot be continued.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -51,7 +51,7 @@ pub fn render_tile_pass(
         pixel.advance(scene, x, y, cap);
     });
     let values: Vec<_> = pixels.par_iter().map(PixelProgress::value).collect();
-    let mut tile = pixels_to_tile(rect, values.iter());
+    let mut tile = pixels_to_tile(rect, film_passes(scene), values.iter());
     if let Some(before) = previous {
         tile.stats.add(&before.stats);
     }

@@ -58,7 +58,8 @@ pub fn frame(
 ) -> anyhow::Result<(Image, Vec<(u32, String)>)> {
     let film = &spec.scene.film;
     // Admission checked the crop against the film; a spec stored otherwise is an error.
-    let mut image = Image::window(film.width, film.height, spec.window())?;
+    let passes = spindle_common::aov::AovSet::of(&film.passes);
+    let mut image = Image::window(film.width, film.height, spec.window())?.with_passes(passes);
     let mut damaged = Vec::new();
     for (index, hash) in tiles {
         match store.read(job, *index, hash) {
@@ -124,6 +125,47 @@ pub fn write_final(
     spindle_common::atomic_write::write(store.image_path(job), &bytes)
         .map_err(anyhow::Error::from)?;
     Ok(sha256_hex(&bytes))
+}
+
+/// The EXR of a cancelled job's finished tiles (`tiles`: each tile's latest result), as
+/// `spindle render` writes an interrupted render: the missing tiles, and any stored result found
+/// damaged, transparent black (alpha 0); the header of a finished job's image with
+/// `spindle.tiles_done` = `N of M`. Made on request, never stored.
+pub fn partial(
+    store: &TileStore,
+    job: u64,
+    spec: &JobSpec,
+    tiles: &[(u32, String)],
+    facts: &JobFacts,
+) -> anyhow::Result<Vec<u8>> {
+    let (mut image, damaged) = frame(store, job, spec, tiles)?;
+    for (index, why) in &damaged {
+        tracing::warn!(
+            job,
+            tile = index,
+            why,
+            "a stored tile is left out of a partial image"
+        );
+    }
+    spindle_common::header::describe(
+        &mut image,
+        &RenderFacts {
+            scene: &spec.scene,
+            window: spec.window(),
+            stats: facts.stats,
+            provenance: facts.provenance,
+            passes: facts.passes.map(|p| (p.pass, p.budget_s)),
+            render_seconds: facts.render_seconds,
+            scene_file: None,
+            workers: None,
+        },
+    );
+    let done = tiles.len() - damaged.len();
+    image.attributes.insert(
+        "spindle.tiles_done".into(),
+        format!("{done} of {}", spec.tiles().len()),
+    );
+    Ok(image.to_exr_bytes()?)
 }
 
 /// The SHA-256 of `bytes`, lowercase hex.

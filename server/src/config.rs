@@ -244,6 +244,20 @@ impl Config {
     /// with a token shorter than [`MIN_TOKEN_BYTES`], or without TLS unless plain HTTP was
     /// asked for.
     pub fn check_listen_address(&self, addr: SocketAddr) -> anyhow::Result<()> {
+        for (setting, token) in [
+            ("--token (SPINDLE_TOKEN)", &self.client_token),
+            ("--worker-token (SPINDLE_WORKER_TOKEN)", &self.worker_token),
+        ] {
+            if let Some(token) = token
+                && is_placeholder(token)
+            {
+                bail!(
+                    "{setting}: `{token}` is the placeholder deploy/ ships, a token anyone can \
+                     read; generate one (openssl rand -hex 32) and put it in the secret or \
+                     environment file"
+                );
+            }
+        }
         if let (Some(client), Some(worker)) = (&self.client_token, &self.worker_token)
             && client == worker
         {
@@ -279,6 +293,16 @@ impl Config {
         }
         Ok(())
     }
+}
+
+/// Is `token` one of the placeholders deploy/ ships (`REPLACE-with-…` in the Kubernetes secret,
+/// `change-me-…` in the systemd environment files), or made like one? An unedited deployment's
+/// token is public, so it is refused on any address.
+fn is_placeholder(token: &str) -> bool {
+    let t = token.trim().to_ascii_lowercase();
+    ["replace", "change-me", "changeme", "change_me"]
+        .iter()
+        .any(|p| t.starts_with(p))
 }
 
 impl Args {
@@ -467,6 +491,65 @@ mod tests {
         assert!(parse(&tokens).is_ok());
         let err = parse(&["--tls-cert", "/c.pem"]).unwrap_err().to_string();
         assert!(err.contains("--tls-cert needs --tls-key"), "{err}");
+    }
+
+    #[test]
+    fn the_shipped_placeholder_tokens_are_refused_naming_the_setting() {
+        // The values deploy/ ships, read from its files: the test follows them if they change.
+        let deploy = concat!(env!("CARGO_MANIFEST_DIR"), "/../deploy");
+        let read = |p: &str| std::fs::read_to_string(format!("{deploy}/{p}")).unwrap();
+        let mut shipped: Vec<String> = Vec::new();
+        for line in read("kubernetes/base/secrets.yaml").lines() {
+            if let Some(v) = line.trim().strip_prefix("client-token:") {
+                shipped.push(v.trim().into());
+            }
+            if let Some(v) = line.trim().strip_prefix("worker-token:") {
+                shipped.push(v.trim().into());
+            }
+        }
+        for file in ["systemd/server.env.example", "systemd/worker.env.example"] {
+            for line in read(file).lines() {
+                if let Some(v) = line.strip_prefix("SPINDLE_TOKEN=") {
+                    shipped.push(v.into());
+                }
+                if let Some(v) = line.strip_prefix("SPINDLE_WORKER_TOKEN=") {
+                    shipped.push(v.into());
+                }
+            }
+        }
+        assert!(shipped.len() >= 5, "{shipped:?}");
+        for placeholder in &shipped {
+            assert!(placeholder.len() >= MIN_TOKEN_BYTES, "{placeholder}");
+            for (listen, client, worker, setting) in [
+                (
+                    "0.0.0.0:1",
+                    placeholder.as_str(),
+                    WORKER,
+                    "--token (SPINDLE_TOKEN)",
+                ),
+                (
+                    "127.0.0.1:1",
+                    CLIENT,
+                    placeholder.as_str(),
+                    "--worker-token (SPINDLE_WORKER_TOKEN)",
+                ),
+            ] {
+                let argv = [
+                    "--listen",
+                    listen,
+                    "--token",
+                    client,
+                    "--worker-token",
+                    worker,
+                    "--allow-plain-http",
+                ];
+                let err = parse(&argv).unwrap_err().to_string();
+                assert!(
+                    err.starts_with(&format!("{setting}: `{placeholder}` is the placeholder")),
+                    "{err}"
+                );
+            }
+        }
     }
 
     #[test]

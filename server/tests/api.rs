@@ -670,3 +670,64 @@ async fn an_obj_its_transform_carries_past_the_extent_is_refused_at_submission()
         assert_eq!(status, StatusCode::CREATED, "{v}");
     }
 }
+
+/// A cancelled job's finished tiles come back as a partial EXR: the finished tile's pixels in
+/// place, the missing tile transparent black (alpha 0), `spindle.tiles_done` = `1 of 2`. A job
+/// still running has no image yet (409, saying when it will).
+#[tokio::test]
+async fn a_cancelled_jobs_finished_tiles_are_a_partial_exr() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = Coordinator::open(config(dir.path())).await;
+    let job = c
+        .submit(json!({"scene": scene(16, 8), "tile_size": 8}))
+        .await; // 2 tiles, side by side
+    let w = c.register("w").await;
+    let first = c.lease(w).await.unwrap();
+    c.upload(job.id, first.tile_index, &upload_for(&first, w))
+        .await;
+    let second = c.lease(w).await.unwrap();
+    let uri = format!("/v1/jobs/{}/image.exr", job.id);
+    let (status, body) = c
+        .send(Method::GET, &uri, Some(CLIENT), axum::body::Body::empty())
+        .await;
+    assert_eq!(status, StatusCode::CONFLICT);
+    assert!(
+        error_of(&body).contains("once it is cancelled"),
+        "{}",
+        error_of(&body)
+    );
+
+    let (status, v) = c
+        .client(Method::POST, &format!("/v1/jobs/{}/cancel", job.id), None)
+        .await;
+    assert_eq!(status, StatusCode::OK, "{v}");
+    let (status, body) = c
+        .send(Method::GET, &uri, Some(CLIENT), axum::body::Body::empty())
+        .await;
+    assert_eq!(status, StatusCode::OK, "{}", String::from_utf8_lossy(&body));
+    let image = spindle_common::image::Image::from_exr_bytes(&body).unwrap();
+    assert_eq!((image.width, image.height), (16, 8));
+    assert_eq!(
+        image
+            .attributes
+            .get("spindle.tiles_done")
+            .map(String::as_str),
+        Some("1 of 2")
+    );
+    for y in 0..8 {
+        for x in 0..16 {
+            let p = (y * 16 + x) as usize;
+            let (alpha, red) = (image.alpha[p], image.total[3 * p]);
+            if first.rect.x <= x && x < first.rect.x + first.rect.width {
+                let expected = (
+                    tile_colour(first.tile_index, 5, 0),
+                    tile_colour(first.tile_index, 0, 0),
+                );
+                assert_eq!((alpha, red), expected, "({x}, {y}) of the finished tile");
+            } else {
+                assert!(second.rect.x <= x && x < second.rect.x + second.rect.width);
+                assert_eq!((alpha, red), (0.0, 0.0), "({x}, {y}) of the missing tile");
+            }
+        }
+    }
+}

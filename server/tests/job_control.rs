@@ -62,6 +62,38 @@ async fn jobs_have_names_and_are_listed_by_state_and_name_in_stable_pages() {
     assert_eq!(&seen[..4], &boxes[..]);
     assert!(seen.windows(2).all(|w| w[0] < w[1]), "{seen:?}");
 
+    // Newest first (`order=desc`), in pages of 2: every "box" job once, ids falling; one
+    // submitted between pages is newer than the first page and so not listed.
+    let mut newest = Vec::new();
+    let mut query = "?name=box&limit=2&order=desc".to_string();
+    loop {
+        let page = list(&c, &query).await;
+        assert!(page.jobs.len() <= 2);
+        newest.extend(page.jobs.iter().map(|j| j.id));
+        c.submit(json!({"scene": scene(8, 8), "name": "box-later"}))
+            .await;
+        match page.next_cursor {
+            Some(cursor) => query = format!("?name=box&limit=2&order=desc&cursor={cursor}"),
+            None => break,
+        }
+        assert!(newest.len() < 50, "the pages do not end");
+    }
+    let mut oldest_first = newest.clone();
+    oldest_first.reverse();
+    assert_eq!(&oldest_first[..4], &boxes[..]);
+    assert!(newest.windows(2).all(|w| w[0] > w[1]), "{newest:?}");
+    // Every box job there was when the first page was read, and none after.
+    let all = list(&c, "?name=box&limit=1000").await;
+    let first_page_top = newest[0];
+    let expected: Vec<u64> = all
+        .jobs
+        .iter()
+        .map(|j| j.id)
+        .filter(|&id| id <= first_page_top)
+        .rev()
+        .collect();
+    assert_eq!(newest, expected);
+
     let cancelled = list(&c, "?state=cancelled").await;
     assert_eq!(
         cancelled.jobs.iter().map(|j| j.id).collect::<Vec<_>>(),
@@ -72,6 +104,7 @@ async fn jobs_have_names_and_are_listed_by_state_and_name_in_stable_pages() {
         ("?limit=0", "limit"),
         ("?limit=1001", "limit"),
         ("?cursor=abc", "cursor"),
+        ("?order=newest", "order"),
         ("?colour=red", "query"),
     ] {
         let (status, v) = c

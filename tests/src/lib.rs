@@ -610,7 +610,8 @@ pub fn reference_image(scene: &Value, assets: &Assets) -> Result<Image> {
     let desc = serde_json::from_value(scene.clone())?;
     let scene = Scene::build(&desc, assets).map_err(|e| anyhow!("reference scene: {e}"))?;
     let film = scene.film();
-    let mut image = Image::new(film.width, film.height);
+    let mut image =
+        Image::new(film.width, film.height).with_passes(spindle_render::film_passes(&scene));
     for rect in split_centre_first(film.width, film.height, 16) {
         image
             .insert_tile(&render_tile(&scene, rect))
@@ -649,6 +650,12 @@ pub fn assert_bit_identical(a: &Image, b: &Image) {
             );
         }
     }
+    assert_eq!(a.passes, b.passes, "the optional passes differ");
+    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert!(
+        bits(&a.aov) == bits(&b.aov),
+        "the optional passes' values differ"
+    );
 }
 
 /// Runs the `spindle` command with `args` in `cwd` (or here), with the farm's address and client

@@ -563,6 +563,17 @@ fn first_non_finite(pixels: &TilePixels) -> Option<String> {
             ));
         }
     }
+    if let Some(i) = pixels.aov.iter().position(|v| !v.is_finite()) {
+        let per_pixel = pixels.aov_values_per_pixel().max(1);
+        let pixel = i / per_pixel;
+        let x = rect.x as usize + pixel % rect.width as usize;
+        let y = rect.y as usize + pixel / rect.width as usize;
+        return Some(format!(
+            "pixel ({x}, {y}) of the optional passes (film.passes), value {}, is {}",
+            i % per_pixel,
+            pixels.aov[i]
+        ));
+    }
     None
 }
 

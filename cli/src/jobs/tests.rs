@@ -30,26 +30,6 @@ fn job(id: u64, state: JobState, tiles_done: u32, eta_s: Option<f64>) -> JobInfo
     }
 }
 
-/// The coordinator lists oldest first; the table, like the dashboard, newest first, and a
-/// limit keeps the newest.
-#[test]
-fn jobs_are_listed_newest_first_and_a_limit_keeps_the_newest() {
-    let listed = || {
-        (1..=5)
-            .map(|id| job(id, JobState::Done, 32, None))
-            .collect()
-    };
-    let mut jobs: Vec<JobInfo> = listed();
-    newest_first(&mut jobs, None);
-    assert_eq!(
-        jobs.iter().map(|j| j.id).collect::<Vec<_>>(),
-        [5, 4, 3, 2, 1]
-    );
-    let mut jobs: Vec<JobInfo> = listed();
-    newest_first(&mut jobs, Some(2));
-    assert_eq!(jobs.iter().map(|j| j.id).collect::<Vec<_>>(), [5, 4]);
-}
-
 /// 8 of 32 tiles is 25 %; a running job shows the coordinator's ETA, a finished one none.
 #[test]
 fn the_table_shows_progress_and_eta() {

@@ -638,3 +638,67 @@ fn half_precision_writes_half_floats_that_read_back_rounded() {
         Precision::Float
     );
 }
+
+/// The optional passes travel like the layers: tiles with them land in place, the EXR file holds
+/// them under their channel names (`Z`, `normal.X`, …, `id.id` always 32-bit) and reads back to
+/// the same bits; a tile without them is refused by an image that holds them, naming the field.
+#[test]
+fn optional_passes_are_placed_written_and_read_back() {
+    use crate::aov::{Aov, AovSet};
+    let passes = AovSet::of(&[Aov::Id, Aov::Depth, Aov::Normal]);
+    let k = passes.values_per_pixel();
+    let (width, height) = (6, 5);
+    let mut image = Image::new(width, height).with_passes(passes);
+    for rect in split_centre_first(width, height, 4) {
+        let mut tile = tile_of(rect);
+        tile.aov = (0..rect.pixel_count() * k)
+            .map(|i| {
+                let (p, c) = (i / k, i % k);
+                let (x, y) = (
+                    rect.x + p as u32 % rect.width,
+                    rect.y + p as u32 / rect.width,
+                );
+                value(9, x, y, c)
+            })
+            .collect();
+        image.insert_tile(&tile).unwrap();
+    }
+    for y in 0..height {
+        for x in 0..width {
+            for c in 0..k {
+                assert_eq!(
+                    image.aov[(y * width + x) as usize * k + c],
+                    value(9, x, y, c)
+                );
+            }
+        }
+    }
+    let back = Image::from_exr_bytes(&image.to_exr_bytes().unwrap()).unwrap();
+    assert_eq!(back.passes, passes);
+    assert_eq!(bits(&back.aov), bits(&image.aov));
+
+    image.precision = Precision::Half;
+    let half = Image::from_exr_bytes(&image.to_exr_bytes().unwrap()).unwrap();
+    // The id (the last value of each pixel) keeps its 32 bits; the depth is rounded to half.
+    for p in 0..(width * height) as usize {
+        assert_eq!(half.aov[p * k + k - 1], image.aov[p * k + k - 1]);
+    }
+    assert!((0..(width * height) as usize).any(|p| half.aov[p * k] != image.aov[p * k]));
+
+    let bare = tile_of(TileRect {
+        x: 0,
+        y: 0,
+        width: 2,
+        height: 2,
+    });
+    let e = image.insert_tile(&bare).unwrap_err().to_string();
+    assert_eq!(
+        e,
+        "the optional passes (`film.passes`: depth, normal, id) have 0 values, expected 20"
+    );
+    // And an image without passes refuses a tile that has them.
+    let mut plain = Image::new(width, height);
+    let mut extra = bare.clone();
+    extra.aov = vec![0.0; 4];
+    assert!(plain.insert_tile(&extra).is_err());
+}

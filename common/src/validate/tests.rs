@@ -1035,3 +1035,24 @@ fn a_procedural_shape_past_the_extent_is_refused_naming_its_transform() {
             < 1e-15
     );
 }
+
+#[test]
+fn film_passes_are_known_names_each_listed_once() {
+    let with = |passes: Value| {
+        let mut scene = full_scene();
+        scene["film"]["passes"] = passes;
+        SceneDescription::from_json(&scene.to_string())
+    };
+    let scene = with(json!(["normal", "id", "depth", "albedo"])).unwrap();
+    assert_eq!(scene.film.passes.len(), 4);
+    let e = with(json!(["depth", "id", "depth"])).unwrap_err();
+    assert_eq!(e.path, "film.passes[2]", "{e}");
+    assert!(e.problem.contains("`depth` is listed twice"), "{e}");
+    // Alpha is always written: it is no optional pass.
+    let e = with(json!(["alpha"])).unwrap_err();
+    assert_eq!(e.path, "film.passes[0]", "{e}");
+    assert!(
+        e.problem.contains("unknown variant `alpha`") && e.problem.contains("`depth`"),
+        "{e}"
+    );
+}

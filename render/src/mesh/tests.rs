@@ -33,7 +33,9 @@ fn cube_is_closed_and_normals_point_out_along_the_diagonals() {
             triangles: 12,
             degenerate: 0,
             closed: true,
-            boundary_edges: 0
+            boundary_edges: 0,
+            flipped_edges: 0,
+            inside_out: false,
         }
     );
     let centre = DVec3::splat(0.5);

@@ -9,8 +9,8 @@ use axum::response::{IntoResponse, Response};
 use base64::Engine;
 use serde::Deserialize;
 use spindle_common::protocol::{
-    ApiError, DEFAULT_JOB_PAGE, IDEMPOTENCY_KEY_HEADER, JobInfo, JobList, JobPatch, JobSpec,
-    JobState, MAX_JOB_PAGE, SubmitJob, check_labels, check_name,
+    ApiError, DEFAULT_JOB_PAGE, IDEMPOTENCY_KEY_HEADER, JobInfo, JobList, JobOrder, JobPatch,
+    JobSpec, JobState, MAX_JOB_PAGE, SubmitJob, check_labels, check_name,
 };
 use utoipa_axum::routes;
 
@@ -121,10 +121,15 @@ struct ListQuery {
     /// `next_cursor` of the previous page (empty: the first page).
     #[param(pattern = "^[0-9]{0,19}$")]
     cursor: Option<String>,
+    /// `asc` (default): oldest first; `desc`: newest first.
+    #[param(value_type = Option<JobOrder>)]
+    order: Option<String>,
 }
 
-/// Lists jobs, oldest first, a page at a time: pass `next_cursor` as `cursor` for the next.
-/// Pages are stable: jobs submitted meanwhile come after the ones already listed.
+/// Lists jobs, oldest first (or newest first with `order=desc`), a page at a time: pass
+/// `next_cursor` as `cursor` for the next. Pages are stable: oldest first, jobs submitted
+/// meanwhile come after the ones already listed; newest first, they are not listed (they are
+/// newer than the first page).
 #[utoipa::path(get, path = "/v1/jobs", params(ListQuery),
     responses((status = 200, body = JobList), (status = 400, body = ApiError)))]
 async fn list_jobs(
@@ -153,11 +158,17 @@ async fn list_jobs(
                 Error::BadRequest("cursor: not a cursor this coordinator gave".into())
             })?),
         };
+    let order = match query.order.as_deref() {
+        None | Some("") => JobOrder::default(),
+        Some(o) => JobOrder::parse(o)
+            .ok_or_else(|| Error::BadRequest(format!("order: {o:?} is not asc or desc")))?,
+    };
     let filter = JobFilter {
         state: job_state,
         name: query.name.filter(|n| !n.is_empty()),
         after,
         limit,
+        order,
     };
     let (jobs, next_cursor) = state.ledger().list(&filter);
     Ok(Json(JobList { jobs, next_cursor }))
@@ -276,7 +287,9 @@ async fn delete_job(
     Ok(StatusCode::NO_CONTENT)
 }
 
-/// The final EXR, once every tile is in.
+/// The final EXR, once every tile is in; for a cancelled job, the EXR of its finished tiles
+/// (the missing ones transparent black, alpha 0; `spindle.tiles_done` = `N of M` in the header),
+/// made on request with the digest of its bytes.
 #[utoipa::path(get, path = "/v1/jobs/{id}/image.exr", params(("id" = u64, Path, description = "job id")),
     responses((status = 200, content_type = "image/x-exr", body = Vec<u8>),
               (status = 404, body = ApiError), (status = 409, body = ApiError)))]
@@ -284,19 +297,48 @@ async fn image_exr(
     State(state): State<AppState>,
     ApiPath(id): ApiPath<u64>,
 ) -> Result<Response, Error> {
-    {
+    let cancelled = {
         let ledger = state.ledger();
         let job = ledger.job(id)?;
-        if job.state != JobState::Done {
-            return Err(Error::Conflict(format!(
-                "job {id} is {} ({} of {} tiles); the image is ready when the job is done",
-                job.state.as_str(),
-                job.tiles_done,
-                job.tiles_total
-            )));
+        match job.state {
+            JobState::Done => None,
+            JobState::Cancelled => Some((
+                job.spec.clone(),
+                job.stats,
+                job.provenance.clone(),
+                ledger.latest_results(id)?,
+            )),
+            _ => {
+                return Err(Error::Conflict(format!(
+                    "job {id} is {} ({} of {} tiles); the image is ready when the job is done \
+                     (or, its finished tiles, once it is cancelled)",
+                    job.state.as_str(),
+                    job.tiles_done,
+                    job.tiles_total
+                )));
+            }
         }
-    }
-    let (bytes, sha256) = final_image(&state, id).await?;
+    };
+    let (bytes, sha256) = match cancelled {
+        None => final_image(&state, id).await?,
+        Some((spec, stats, provenance, tiles)) => {
+            let store = state.tile_store().clone();
+            tokio::task::spawn_blocking(move || {
+                use sha2::Digest;
+                let facts = assemble::JobFacts {
+                    stats: &stats,
+                    provenance: provenance.as_deref(),
+                    passes: None,
+                    render_seconds: None,
+                };
+                let bytes = assemble::partial(&store, id, &spec, &tiles, &facts)?;
+                let sha256 = sha2::Sha256::digest(&bytes).to_vec();
+                anyhow::Ok((bytes, sha256))
+            })
+            .await
+            .map_err(anyhow::Error::from)??
+        }
+    };
     let digest = base64::engine::general_purpose::STANDARD.encode(&sha256);
     let hex: String = sha256.iter().map(|b| format!("{b:02x}")).collect();
     Ok((

@@ -60,7 +60,10 @@ type Declared = Vec<(Role, UtoipaMethodRouter<AppState>)>;
                        address (50, bursts of 100); every 429 and 503 carries Retry-After."
     ),
     modifiers(&BearerTokens),
-    components(schemas(spindle_common::protocol::FarmEvent))
+    components(schemas(
+        spindle_common::protocol::FarmEvent,
+        spindle_common::protocol::JobOrder
+    ))
 )]
 struct ApiDoc;
 

@@ -12,7 +12,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use rusqlite::Connection;
-use spindle_common::protocol::{JobInfo, JobSpec, JobState, SubmitJob};
+use spindle_common::protocol::{JobInfo, JobOrder, JobSpec, JobState, SubmitJob};
 use tokio::time::Instant;
 
 use super::Ledger;
@@ -28,9 +28,11 @@ pub struct JobFilter {
     pub state: Option<JobState>,
     /// Jobs whose name contains this.
     pub name: Option<String>,
-    /// Jobs with a larger id only (the cursor).
+    /// The cursor: jobs after this id in `order` only (larger ids ascending, smaller
+    /// descending).
     pub after: Option<u64>,
     pub limit: usize,
+    pub order: JobOrder,
 }
 
 /// An admitted submission, ready to be stored.
@@ -128,8 +130,17 @@ impl Ledger {
         let now = Instant::now();
         let wall = now_ms();
         let live = self.workers_live(now);
-        let start = filter.after.map_or(0, |a| a.saturating_add(1));
-        let mut selected = self.jobs.range(start..).map(|(_, j)| j).filter(|j| {
+        let ids: Box<dyn Iterator<Item = &Job>> = match filter.order {
+            JobOrder::Asc => {
+                let start = filter.after.map_or(0, |a| a.saturating_add(1));
+                Box::new(self.jobs.range(start..).map(|(_, j)| j))
+            }
+            JobOrder::Desc => match filter.after {
+                None => Box::new(self.jobs.values().rev()),
+                Some(before) => Box::new(self.jobs.range(..before).rev().map(|(_, j)| j)),
+            },
+        };
+        let mut selected = ids.filter(|j| {
             filter.state.is_none_or(|s| j.state == s)
                 && filter
                     .name

@@ -260,6 +260,16 @@ impl Ledger {
                 )));
             }
         }
+        let passes = spindle_common::aov::AovSet::of(&job.spec.scene.film.passes);
+        let samples = expected.pixel_count() * passes.values_per_pixel();
+        if upload.pixels.aov.len() != samples {
+            return Err(Error::BadRequest(format!(
+                "pixels.aov: expected {samples} values ({} per pixel for the job's film.passes), \
+                 got {}",
+                passes.values_per_pixel(),
+                upload.pixels.aov.len()
+            )));
+        }
         let tile = &job.tiles[index as usize];
         if tile.status == TileStatus::Done {
             let hash = db::done_hash(&self.db, id, index)?.unwrap_or_default();
