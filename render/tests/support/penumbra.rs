@@ -1,8 +1,6 @@
 //! The penumbra scene the progressive-pass and `stderr` tests share: a diffuse floor lit by a
 //! sphere light half hidden behind an opaque box (a penumbra across the film) and a glass
 //! sphere's single scattering — noisy enough that adaptive pixels stop after different batches.
-//! Multiple scattering is kept to orders 2 and 3: its layer is carried and summed like the
-//! others, at a fifth of the default walk's cost.
 //! Included with `#[path]` by the tests that use it.
 
 use glam::DVec3;
@@ -42,8 +40,7 @@ pub fn scene(fov_y: f64, film: serde_json::Value) -> Scene {
              "transform": {"translate": [-1.5, 0.0, 0.8]},
              "material": {"type": "dielectric", "eta": 1.5,
                           "medium": {"sigma_t": [1, 1, 1], "albedo": [0.9, 0.9, 0.9]}}}
-        ],
-        "integrator": {"multiple_scatter": {"max_order": 3}}
+        ]
     }))
     .unwrap();
     Scene::build(&desc, &assets).unwrap()
