@@ -190,10 +190,18 @@ async fn submit_wait_status_fetch_and_cancel_against_a_coordinator() {
             Some(&farm),
         )
         .await;
+        // A cancelled job's image is its finished tiles, the missing ones transparent: here
+        // none was rendered, so every pixel is.
         assert!(
-            !out.status.success(),
+            out.status.success(),
             "fetching a cancelled job: {}",
             text(&out)
+        );
+        let partial = spindle_common::image::read_exr(dir.path().join("no.exr"))
+            .expect("the partial image reads back");
+        assert!(
+            !partial.alpha.is_empty() && partial.alpha.iter().all(|&a| a == 0.0),
+            "no tile was rendered, so no pixel is covered"
         );
 
         // With a worker, submit --wait returns once the job is done.
