@@ -44,6 +44,20 @@ impl Crossing {
         let p = mesh.point(triangle, hit.a, hit.b);
         let geometric = mesh.geometric_normal(triangle).normalize_or_zero();
         let shading = mesh.shading_normal(triangle, hit.a, hit.b);
+        Crossing::of(scene, object, p, geometric, shading, dir)
+    }
+
+    /// The crossing at `p` on object `object`'s surface, where the unit geometric normal is
+    /// `geometric` and the shading normal `shading`, for a ray with unit direction `dir`: for a
+    /// caller that has the hit's point and normals already.
+    pub fn of(
+        scene: &Scene,
+        object: usize,
+        p: DVec3,
+        geometric: DVec3,
+        shading: DVec3,
+        dir: DVec3,
+    ) -> Crossing {
         let facing = if dir.dot(shading) < 0.0 {
             shading
         } else {

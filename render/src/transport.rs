@@ -258,7 +258,7 @@ fn interact(
             // Which side the ray arrives from is geometry's call; the optics use the shading
             // normal turned to face the ray. The surface parts the medium the path is in from
             // the one beyond it there (`crossing`).
-            let crossing = Crossing::at(scene, hit, ray.dir);
+            let crossing = Crossing::of(scene, object, p, geometric, shading, ray.dir);
             let Crossing {
                 facing,
                 internal: reflects_inside,

@@ -5,11 +5,14 @@
 //! the sun scattering in water whose side wall is shared with a glass pane, lit through the free
 //! top alone (the pane's side would be a second interface). Then the layouts refused.
 
+#[path = "support/optics.rs"]
+mod optics;
 mod support;
 
 use std::f64::consts::PI;
 
 use glam::DVec3;
+use optics::{cos_in, fresnel};
 use serde_json::{Value, json};
 use spindle_common::stats::RenderStats;
 use spindle_render::ray::{OFFSET_SCALE, Ray};
@@ -22,25 +25,6 @@ use support::box_obj;
 
 const WATER: f64 = 1.33;
 const GLASS: f64 = 1.5;
-
-/// Unpolarised Fresnel reflectance from index `n1` onto `n2` at incidence cosine `c` (1 on total
-/// internal reflection), written out here so the ground truths do not lean on the renderer's.
-fn fresnel(n1: f64, n2: f64, c: f64) -> f64 {
-    let s = n1 / n2 * (1.0 - c * c).sqrt();
-    if s >= 1.0 {
-        return 1.0;
-    }
-    let ct = (1.0 - s * s).sqrt();
-    let rs = (n1 * c - n2 * ct) / (n1 * c + n2 * ct);
-    let rp = (n2 * c - n1 * ct) / (n2 * c + n1 * ct);
-    0.5 * (rs * rs + rp * rp)
-}
-
-/// The cosine of the angle to the normal in a medium of index `n`, for a ray whose invariant
-/// `n sin θ` is `invariant` (Snell).
-fn cos_in(n: f64, invariant: f64) -> f64 {
-    (1.0 - (invariant / n).powi(2)).sqrt()
-}
 
 fn dielectric(path: &str, eta: f64, sigma_t: f64, albedo: f64) -> Value {
     json!({"shape": {"type": "obj", "path": path},
